@@ -1,0 +1,178 @@
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/json.hpp>
+
+#include <cmath>
+
+namespace mgcloth {
+
+JsonReader::JsonReader(const Json& j, std::string file, std::string path)
+    : m_json(&j), m_file(std::move(file)), m_path(std::move(path)) {
+  if (!j.is_object()) {
+    throw InputError(fmt::format("{}: {}: expected an object, got {}", m_file, m_path.empty() ? "(top level)" : m_path,
+                                 j.type_name()));
+  }
+}
+
+bool JsonReader::has(const std::string& key) const { return m_json->contains(key) && !(*m_json)[key].is_null(); }
+
+std::string JsonReader::path_of(const std::string& key) const { return m_path.empty() ? key : m_path + "." + key; }
+
+void JsonReader::fail(const std::string& key, const std::string& what) const {
+  throw InputError(fmt::format("{}: {}: {}", m_file, path_of(key), what));
+}
+
+const Json& JsonReader::at(const std::string& key) {
+  m_used.insert(key);
+  if (!m_json->contains(key)) fail(key, "missing required field");
+  return (*m_json)[key];
+}
+
+const Json& JsonReader::raw(const std::string& key) { return at(key); }
+
+double JsonReader::to_number(const std::string& key, const Json& v, double lo, double hi) const {
+  if (!v.is_number()) fail(key, fmt::format("expected a number, got {} {}", v.type_name(), v.dump()));
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) fail(key, "expected a finite number");
+  if (d < lo || d > hi) {
+    if (hi == kInf) fail(key, fmt::format("must be >= {}, got {}", lo, d));
+    if (lo == -kInf) fail(key, fmt::format("must be <= {}, got {}", hi, d));
+    fail(key, fmt::format("must be in [{}, {}], got {}", lo, hi, d));
+  }
+  return d;
+}
+
+double JsonReader::number(const std::string& key, double fallback, double lo, double hi) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  return to_number(key, (*m_json)[key], lo, hi);
+}
+
+double JsonReader::required_number(const std::string& key, double lo, double hi) {
+  return to_number(key, at(key), lo, hi);
+}
+
+int JsonReader::integer(const std::string& key, int fallback, int lo, int hi) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  const Json& v = (*m_json)[key];
+  if (!v.is_number_integer()) fail(key, fmt::format("expected an integer, got {}", v.dump()));
+  const auto i = v.get<long long>();
+  if (i < lo || i > hi) fail(key, fmt::format("must be in [{}, {}], got {}", lo, hi, i));
+  return static_cast<int>(i);
+}
+
+bool JsonReader::boolean(const std::string& key, bool fallback) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  const Json& v = (*m_json)[key];
+  if (!v.is_boolean()) fail(key, fmt::format("expected true or false, got {}", v.dump()));
+  return v.get<bool>();
+}
+
+std::string JsonReader::string(const std::string& key, const std::string& fallback) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  const Json& v = (*m_json)[key];
+  if (!v.is_string()) fail(key, fmt::format("expected a string, got {}", v.dump()));
+  return v.get<std::string>();
+}
+
+std::string JsonReader::required_string(const std::string& key) {
+  const Json& v = at(key);
+  if (!v.is_string()) fail(key, fmt::format("expected a string, got {}", v.dump()));
+  return v.get<std::string>();
+}
+
+std::string JsonReader::choice(const std::string& key, const std::string& fallback,
+                               const std::vector<std::string>& choices) {
+  std::string s = string(key, fallback);
+  for (const auto& c : choices)
+    if (c == s) return s;
+  fail(key, fmt::format("unknown value \"{}\" (expected one of: {})", s, fmt::join(choices, ", ")));
+}
+
+std::vector<double> JsonReader::numbers(const std::string& key) {
+  const Json& v = at(key);
+  if (!v.is_array()) fail(key, fmt::format("expected an array of numbers, got {}", v.dump()));
+  std::vector<double> out;
+  for (size_t i = 0; i < v.size(); ++i) out.push_back(to_number(fmt::format("{}[{}]", key, i), v[i], -kInf, kInf));
+  return out;
+}
+
+std::vector<int> JsonReader::integers(const std::string& key, int lo, int hi) {
+  const Json& v = at(key);
+  if (!v.is_array()) fail(key, fmt::format("expected an array of integers, got {}", v.dump()));
+  std::vector<int> out;
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (!v[i].is_number_integer()) fail(fmt::format("{}[{}]", key, i), fmt::format("expected an integer, got {}", v[i].dump()));
+    const auto k = v[i].get<long long>();
+    if (k < lo || k > hi) fail(fmt::format("{}[{}]", key, i), fmt::format("must be in [{}, {}], got {}", lo, hi, k));
+    out.push_back(static_cast<int>(k));
+  }
+  return out;
+}
+
+Vec3 JsonReader::vec3(const std::string& key, const Vec3& fallback) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  const auto v = numbers(key);
+  if (v.size() != 3) fail(key, fmt::format("expected 3 numbers, got {}", v.size()));
+  return {v[0], v[1], v[2]};
+}
+
+Vec2 JsonReader::vec2(const std::string& key, const Vec2& fallback) {
+  m_used.insert(key);
+  if (!has(key)) return fallback;
+  const auto v = numbers(key);
+  if (v.size() != 2) fail(key, fmt::format("expected 2 numbers, got {}", v.size()));
+  return {v[0], v[1]};
+}
+
+JsonReader JsonReader::object(const std::string& key) { return JsonReader(at(key), m_file, path_of(key)); }
+
+std::optional<JsonReader> JsonReader::optional_object(const std::string& key) {
+  m_used.insert(key);
+  if (!has(key)) return std::nullopt;
+  return JsonReader((*m_json)[key], m_file, path_of(key));
+}
+
+std::vector<JsonReader> JsonReader::objects(const std::string& key) {
+  m_used.insert(key);
+  std::vector<JsonReader> out;
+  if (!has(key)) return out;
+  const Json& v = (*m_json)[key];
+  if (!v.is_array()) fail(key, fmt::format("expected an array of objects, got {}", v.type_name()));
+  for (size_t i = 0; i < v.size(); ++i) out.emplace_back(v[i], m_file, fmt::format("{}[{}]", path_of(key), i));
+  return out;
+}
+
+void JsonReader::finish() const {
+  for (auto it = m_json->begin(); it != m_json->end(); ++it) {
+    if (!m_used.count(it.key())) fail(it.key(), "unknown key");
+  }
+}
+
+Json parse_json(const std::string& text, const std::string& file) {
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // nlohmann reports a byte offset; turn it into line:column for the user.
+    size_t line = 1, col = 1;
+    for (size_t i = 0; i < std::min(e.byte, text.size() + 1) - 1 && i < text.size(); ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    std::string what = e.what();
+    const auto pos = what.find("syntax error");
+    throw InputError(fmt::format("{}:{}:{}: malformed JSON: {}", file, line, col,
+                                 pos == std::string::npos ? what : what.substr(pos)));
+  }
+}
+
+Json load_json(const std::string& file) { return parse_json(read_file(file), file); }
+
+}  // namespace mgcloth

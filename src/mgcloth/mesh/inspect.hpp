@@ -1,0 +1,26 @@
+#pragma once
+#include <mgcloth/mesh/tri_mesh.hpp>
+
+#include <string>
+
+namespace mgcloth::mesh {
+
+/// What `mgcloth info` prints about a mesh.
+struct MeshReport {
+  Index vertices = 0;
+  Index triangles = 0;
+  Index edges = 0;
+  Index boundary_loops = 0;
+  double material_area = 0.0;
+  double world_area = 0.0;
+  double min_edge = 0.0, max_edge = 0.0, mean_edge = 0.0;  ///< material-space edge lengths
+  std::vector<Index> degenerate_triangles;                 ///< zero material area (relative tolerance)
+  std::vector<Index> non_manifold_edges_first_tri;         ///< a triangle of each non-manifold edge
+  Index unreferenced_vertices = 0;
+};
+
+/// Inspects without throwing (the mesh need not be valid).
+MeshReport inspect(const TriMesh& mesh);
+std::string format_report(const MeshReport& report, const std::string& name);
+
+}  // namespace mgcloth::mesh

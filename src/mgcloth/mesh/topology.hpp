@@ -1,0 +1,31 @@
+#pragma once
+#include <mgcloth/mesh/tri_mesh.hpp>
+
+namespace mgcloth::mesh {
+
+/// An interior edge with its two triangles: v[0]-v[1] is the edge, v[2] the opposite vertex in tri[0], v[3] the
+/// opposite vertex in tri[1]. Ordered so that (v0, v1, v2) has the orientation of tri[0] and (v1, v0, v3) the
+/// orientation of tri[1].
+struct Hinge {
+  std::array<Index, 4> v;
+  std::array<Index, 2> tri;
+};
+
+/// Connectivity derived once from a mesh.
+struct Topology {
+  std::vector<std::array<Index, 2>> edges;       ///< unique undirected edges, v0 < v1
+  std::vector<std::array<Index, 2>> edge_tris;   ///< the one or two triangles of each edge (-1 when boundary)
+  std::vector<std::array<Index, 3>> tri_edges;   ///< edge index of triangle side (v0v1, v1v2, v2v0)
+  std::vector<Hinge> hinges;                     ///< every interior edge
+  std::vector<std::vector<Index>> boundary_loops;///< vertex loops along boundary edges, in order
+  std::vector<Index> adjacency_offsets;          ///< vertex adjacency in CSR form (neighbours sorted, self excluded)
+  std::vector<Index> adjacency;
+  std::vector<bool> is_boundary_vertex;
+
+  Index num_edges() const { return static_cast<Index>(edges.size()); }
+};
+
+/// Throws InputError (naming `source`, the edge and its triangles) for non-manifold edges.
+Topology build_topology(const TriMesh& mesh, const std::string& source = "mesh");
+
+}  // namespace mgcloth::mesh
