@@ -1,0 +1,74 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/linalg/block_matrix.hpp>
+
+#include <algorithm>
+
+namespace mgcloth::linalg {
+
+BlockMatrix3::BlockMatrix3(Index n, std::vector<std::pair<Index, Index>> pairs) : m_n(n) {
+  const size_t given = pairs.size();
+  pairs.reserve(2 * given + n);
+  for (size_t k = 0; k < given; ++k) {
+    auto [r, c] = pairs[k];
+    if (r < 0 || c < 0 || r >= n || c >= n) throw_error("BlockMatrix3: block ({}, {}) outside {} rows", r, c, n);
+    if (r != c) pairs.emplace_back(c, r);
+  }
+  for (Index i = 0; i < n; ++i) pairs.emplace_back(i, i);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  m_offsets.assign(n + 1, 0);
+  m_cols.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    ++m_offsets[pairs[k].first + 1];
+    m_cols[k] = pairs[k].second;
+  }
+  for (Index i = 0; i < n; ++i) m_offsets[i + 1] += m_offsets[i];
+  m_diag.resize(n);
+  for (Index i = 0; i < n; ++i) m_diag[i] = find(i, i);
+  m_values.assign(m_cols.size(), Mat3::Zero());
+}
+
+Index BlockMatrix3::find(Index r, Index c) const {
+  const auto begin = m_cols.begin() + m_offsets[r];
+  const auto end = m_cols.begin() + m_offsets[r + 1];
+  const auto it = std::lower_bound(begin, end, c);
+  return (it != end && *it == c) ? static_cast<Index>(it - m_cols.begin()) : -1;
+}
+
+void BlockMatrix3::set_zero() {
+  parallel_for(num_blocks(), [&](Index k) { m_values[k].setZero(); }, 4096);
+}
+
+void BlockMatrix3::multiply(const VecX& x, VecX& y) const {
+  y.resize(3 * m_n);
+  parallel_for(m_n, [&](Index r) {
+    Vec3 s = Vec3::Zero();
+    for (Index k = m_offsets[r]; k < m_offsets[r + 1]; ++k) s.noalias() += m_values[k] * x.segment<3>(3 * m_cols[k]);
+    y.segment<3>(3 * r) = s;
+  });
+}
+
+VecX BlockMatrix3::operator*(const VecX& x) const {
+  VecX y;
+  multiply(x, y);
+  return y;
+}
+
+Eigen::SparseMatrix<double, Eigen::RowMajor> BlockMatrix3::to_sparse() const {
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(9 * m_cols.size());
+  for (Index r = 0; r < m_n; ++r)
+    for (Index k = m_offsets[r]; k < m_offsets[r + 1]; ++k)
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) t.emplace_back(3 * r + a, 3 * m_cols[k] + b, m_values[k](a, b));
+  Eigen::SparseMatrix<double, Eigen::RowMajor> s(3 * m_n, 3 * m_n);
+  s.setFromTriplets(t.begin(), t.end());
+  return s;
+}
+
+bool BlockMatrix3::same_pattern(const BlockMatrix3& o) const {
+  return m_n == o.m_n && m_offsets == o.m_offsets && m_cols == o.m_cols;
+}
+
+}  // namespace mgcloth::linalg

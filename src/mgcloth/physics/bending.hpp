@@ -1,0 +1,69 @@
+#pragma once
+#include <mgcloth/mesh/topology.hpp>
+#include <mgcloth/physics/element_term.hpp>
+#include <mgcloth/physics/material.hpp>
+
+namespace mgcloth::physics {
+
+using Vec12 = Eigen::Matrix<double, 12, 1>;
+using Mat12 = Eigen::Matrix<double, 12, 12>;
+
+/// Signed dihedral angle of a hinge (x0, x1 the edge, x2 and x3 the opposite vertices, see mesh::Hinge):
+/// θ = atan2((N1 × N2)·ê, N1·N2), N1 = e × (x2 − x0), N2 = (x3 − x0) × e; zero when flat.
+double dihedral_angle(const Vec12& x);
+
+/// ∇θ (Bridson et al. 2003): the opposite vertices move along their triangle's normal over its height
+/// (∂θ/∂x2 = −|e| N1/|N1|²), the edge vertices take the opposite, split by where x2 and x3 project onto the edge.
+/// Templated so that forward-mode automatic differentiation of it gives the exact ∇²θ.
+template <class S>
+Eigen::Matrix<S, 12, 1> dihedral_angle_gradient(const Eigen::Matrix<S, 12, 1>& x) {
+  using V = Eigen::Matrix<S, 3, 1>;
+  const V x0 = x.template segment<3>(0), x1 = x.template segment<3>(3);
+  const V x2 = x.template segment<3>(6), x3 = x.template segment<3>(9);
+  const V e = x1 - x0;
+  const S el2 = e.dot(e);
+  using std::sqrt;
+  const S el = sqrt(el2);
+  const V n1 = e.cross(x2 - x0), n2 = (x3 - x0).cross(e);
+  const V g2 = -el * n1 / n1.dot(n1);
+  const V g3 = -el * n2 / n2.dot(n2);
+  const S t2 = (x2 - x0).dot(e) / el2, t3 = (x3 - x0).dot(e) / el2;
+  Eigen::Matrix<S, 12, 1> g;
+  g.template segment<3>(0) = -(S(1) - t2) * g2 - (S(1) - t3) * g3;
+  g.template segment<3>(3) = -t2 * g2 - t3 * g3;
+  g.template segment<3>(6) = g2;
+  g.template segment<3>(9) = g3;
+  return g;
+}
+
+/// Exact ∇²θ by forward-mode differentiation of dihedral_angle_gradient.
+Mat12 dihedral_angle_hessian(const Vec12& x);
+
+/// Hinge bending: E = k_b |ē|²/(Ā1 + Ā2) (θ − θ̄)² per interior edge, with rest quantities from the flat material
+/// state (θ̄ = 0). The weight makes the sum approximate ∫ k_b/2 κ² dA on a cylinder of curvature κ for
+/// quasi-uniform meshes (Grinspun et al. 2003 discrete shells, with k_b the bending rigidity).
+class HingeBending final : public ElementTerm<4> {
+ public:
+  HingeBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
+  std::string name() const override { return "bending_hinge"; }
+  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+
+ private:
+  std::vector<double> m_weight;
+};
+
+/// The quadratic (isometric) bending model of Bergou et al. 2006: E = k_b/(Ā1 + Ā2) |Σ_i K_i x_i|² with the
+/// cotangent weights K = (c03 + c04, c01 + c02, −c01 − c03, −c02 − c04) of the rest hinge. Its Hessian is
+/// constant and positive semi-definite; for small angles it agrees with HingeBending.
+class QuadraticBending final : public ElementTerm<4> {
+ public:
+  QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
+  std::string name() const override { return "bending_quadratic"; }
+  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+
+ private:
+  std::vector<Eigen::Vector4d> m_k;
+  std::vector<double> m_weight;
+};
+
+}  // namespace mgcloth::physics

@@ -1,0 +1,90 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/physics/contact.hpp>
+
+namespace mgcloth::physics {
+
+ObstacleContact::ObstacleContact(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params)
+    : m_area(std::move(area)), m_obstacles(std::move(obstacles)), m_params(params) {
+  const Index n = static_cast<Index>(m_area.size());
+  std::vector<Element> els(n);
+  for (Index i = 0; i < n; ++i) els[i] = {i};
+  set_elements(std::move(els), n);
+  set_time(0.0);
+}
+
+void ObstacleContact::set_time(double t) {
+  m_poses.resize(m_obstacles.size());
+  for (size_t o = 0; o < m_obstacles.size(); ++o) m_poses[o] = m_obstacles[o].motion->pose(t);
+}
+
+double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian* H) const {
+  const double d = m_params.thickness, k = vertex_stiffness(i);
+  double energy = 0.0;
+  if (g) g->setZero();
+  if (H) H->setZero();
+  for (size_t o = 0; o < m_obstacles.size(); ++o) {
+    const geometry::SdfSample s = m_obstacles[o].sdf(xe, m_poses[o]);
+    const double gap = d - s.phi;
+    if (gap <= 0.0) continue;
+    energy += 0.5 * k * gap * gap;
+    if (g) *g -= k * gap * s.grad;
+    if (H) *H += k * (s.grad * s.grad.transpose() - gap * s.hess);
+  }
+  return energy;
+}
+
+Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& obstacles,
+                               const std::vector<geometry::Pose>& poses, VecX* pushed) {
+  const Index n = static_cast<Index>(x.size() / 3);
+  if (pushed) pushed->setZero(n);
+  std::vector<char> moved(n, 0);
+  parallel_for(n, [&](Index i) {
+    // A vertex may touch several obstacles; a few passes settle it where their surfaces meet.
+    for (int pass = 0; pass < 4; ++pass) {
+      bool inside = false;
+      for (size_t o = 0; o < obstacles.size(); ++o) {
+        const Vec3 p = x.segment<3>(3 * i);
+        const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
+        if (s.phi >= 0.0) continue;
+        inside = true;
+        x.segment<3>(3 * i) = p - s.phi * s.grad;
+        if (pushed) (*pushed)[i] -= s.phi;
+        moved[i] = 1;
+      }
+      if (!inside) break;
+    }
+  });
+  Index count = 0;
+  for (char c : moved) count += c;
+  return count;
+}
+
+void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstacleContact& contact, double h,
+                    const VecX& pushed, double t) {
+  const auto& obstacles = contact.obstacles();
+  const auto& poses = contact.poses();
+  const double d = contact.params().thickness;
+  const Index n = static_cast<Index>(x.size() / 3);
+  parallel_for(n, [&](Index i) {
+    const Vec3 p = x.segment<3>(3 * i);
+    for (size_t o = 0; o < obstacles.size(); ++o) {
+      const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
+      const double gap = d - s.phi;
+      if (gap <= 0.0) continue;
+      const Vec3 nrm = s.grad;
+      const Vec3 v_obs = obstacles[o].motion->point_velocity(t, p);
+      Vec3 v_rel = v.segment<3>(3 * i) - v_obs;
+      double vn = v_rel.dot(nrm);
+      // The normal velocity change the contact produced this step: penalty impulse plus projection push.
+      const double dvn = h * contact.vertex_stiffness(i) * gap / mass[i] + pushed[i] / h;
+      if (vn < 0.0) vn = 0.0;  // no velocity into the obstacle survives the step
+      Vec3 vt = v_rel - v_rel.dot(nrm) * nrm;
+      const double vt_norm = vt.norm();
+      const double mu = obstacles[o].friction;
+      if (mu > 0.0 && vt_norm > 0.0) vt *= std::max(0.0, 1.0 - mu * dvn / vt_norm);
+      v.segment<3>(3 * i) = v_obs + vn * nrm + vt;
+    }
+  });
+}
+
+}  // namespace mgcloth::physics

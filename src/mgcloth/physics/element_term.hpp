@@ -1,0 +1,96 @@
+#pragma once
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/physics/psd.hpp>
+#include <mgcloth/physics/term.hpp>
+
+namespace mgcloth::physics {
+
+/// Colors elements so that no two elements of one color share a vertex: assembling one color in parallel then
+/// writes every vertex and every block from one thread only. Deterministic (greedy in element order), and the
+/// summation order per block is fixed, so results are bitwise reproducible whatever the thread count.
+/// Elements that find no free color among the first 63 (pathological valence) go to a last, serial group.
+std::vector<std::vector<Index>> color_elements(const std::vector<Index>& flat_vertices, int arity, Index num_vertices);
+
+/// The shared parallel assembler: a term with elements of K vertices implements element(), the value, gradient
+/// and Hessian of one element from its K local positions; value/gradient/Hessian assembly is written once here.
+template <int K>
+class ElementTerm : public Term {
+ public:
+  static constexpr int N = 3 * K;
+  using Local = Eigen::Matrix<double, N, 1>;
+  using LocalHessian = Eigen::Matrix<double, N, N>;
+  using Element = std::array<Index, K>;
+
+  Index num_elements() const { return static_cast<Index>(m_elements.size()); }
+  const std::vector<Element>& elements() const { return m_elements; }
+
+  /// Energy of element e; fills g and H when they are non-null.
+  virtual double element(Index e, const Local& xe, Local* g, LocalHessian* H) const = 0;
+
+  Local gather(const VecX& x, Index e) const {
+    Local xe;
+    for (int a = 0; a < K; ++a) xe.template segment<3>(3 * a) = x.template segment<3>(3 * m_elements[e][a]);
+    return xe;
+  }
+
+  double value(const VecX& x) const override {
+    return parallel_sum(num_elements(), [&](Index e) { return element(e, gather(x, e), nullptr, nullptr); });
+  }
+
+  void add_gradient(const VecX& x, VecX& g) const override {
+    for (const auto& color : m_colors) {
+      parallel_for(static_cast<Index>(color.size()), [&](Index k) {
+        const Index e = color[k];
+        Local ge = Local::Zero();
+        element(e, gather(x, e), &ge, nullptr);
+        for (int a = 0; a < K; ++a) g.template segment<3>(3 * m_elements[e][a]) += ge.template segment<3>(3 * a);
+      }, 64);
+    }
+  }
+
+  void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project) const override {
+    for (const auto& color : m_colors) {
+      parallel_for(static_cast<Index>(color.size()), [&](Index k) {
+        const Index e = color[k];
+        Local ge;
+        LocalHessian He = LocalHessian::Zero();
+        element(e, gather(x, e), &ge, &He);
+        if (project) project_psd(He);
+        const Index* slots = &m_block_slots[static_cast<size_t>(e) * K * K];
+        for (int a = 0; a < K; ++a)
+          for (int b = 0; b < K; ++b) H.block(slots[a * K + b]) += He.template block<3, 3>(3 * a, 3 * b);
+      }, 64);
+    }
+  }
+
+  void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override {
+    for (const auto& el : m_elements)
+      for (int a = 0; a < K; ++a)
+        for (int b = 0; b < K; ++b)
+          if (el[a] <= el[b]) pairs.emplace_back(el[a], el[b]);
+  }
+
+  void bind(const linalg::BlockMatrix3& pattern) override {
+    m_block_slots.resize(m_elements.size() * K * K);
+    for (size_t e = 0; e < m_elements.size(); ++e)
+      for (int a = 0; a < K; ++a)
+        for (int b = 0; b < K; ++b) m_block_slots[e * K * K + a * K + b] = pattern.find(m_elements[e][a], m_elements[e][b]);
+  }
+
+ protected:
+  /// Sets the stencils (once); colors them for the race-free parallel assembly.
+  void set_elements(std::vector<Element> elements, Index num_vertices) {
+    m_elements = std::move(elements);
+    std::vector<Index> flat(m_elements.size() * K);
+    for (size_t e = 0; e < m_elements.size(); ++e)
+      for (int a = 0; a < K; ++a) flat[e * K + a] = m_elements[e][a];
+    m_colors = color_elements(flat, K, num_vertices);
+  }
+
+ private:
+  std::vector<Element> m_elements;
+  std::vector<std::vector<Index>> m_colors;
+  std::vector<Index> m_block_slots;
+};
+
+}  // namespace mgcloth::physics

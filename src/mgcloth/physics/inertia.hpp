@@ -1,0 +1,32 @@
+#pragma once
+#include <mgcloth/physics/element_term.hpp>
+
+namespace mgcloth::physics {
+
+/// Σ m_i / (2h²) |x_i − y_i|² with y = x_t + h v_t the inertial prediction: the kinetic part of Wang 2018, eq. (2).
+class InertiaTerm final : public ElementTerm<1> {
+ public:
+  explicit InertiaTerm(VecX lumped_mass);
+  std::string name() const override { return "inertia"; }
+  void set_prediction(const VecX& y, double h);
+  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  const VecX& mass() const { return m_mass; }
+
+ private:
+  VecX m_mass, m_y;
+  double m_inv_h2 = 0.0;
+};
+
+/// −Σ m_i g·x_i: the potential of a uniform gravity field.
+class GravityTerm final : public ElementTerm<1> {
+ public:
+  GravityTerm(VecX lumped_mass, const Vec3& gravity);
+  std::string name() const override { return "gravity"; }
+  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+
+ private:
+  VecX m_mass;
+  Vec3 m_gravity;
+};
+
+}  // namespace mgcloth::physics

@@ -1,0 +1,96 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/physics/membrane.hpp>
+
+namespace mgcloth::physics {
+
+double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, double lambda, Vec9* g, Mat9* H) {
+  Eigen::Matrix<double, 3, 2> ds;
+  ds.col(0) = xe.segment<3>(3) - xe.segment<3>(0);
+  ds.col(1) = xe.segment<3>(6) - xe.segment<3>(0);
+  const Eigen::Matrix<double, 3, 2> F = ds * dm_inv;
+  const Mat2 E = 0.5 * (F.transpose() * F - Mat2::Identity());
+  const double trE = E.trace();
+  const double energy = at * (mu * E.squaredNorm() + 0.5 * lambda * trE * trE);
+  if (!g && !H) return energy;
+  // F = Σ_a x_a b_aᵀ with b_1, b_2 the rows of Dm⁻¹ and b_0 = −b_1 − b_2.
+  std::array<Vec2, 3> b;
+  b[1] = dm_inv.row(0).transpose();
+  b[2] = dm_inv.row(1).transpose();
+  b[0] = -b[1] - b[2];
+  const Mat2 S = 2.0 * mu * E + lambda * trE * Mat2::Identity();  // second Piola-Kirchhoff stress
+  const Eigen::Matrix<double, 3, 2> P = F * S;                       // first Piola-Kirchhoff stress
+  if (g)
+    for (int a = 0; a < 3; ++a) g->segment<3>(3 * a) = at * P * b[a];
+  if (H) {
+    // ∂²W/∂x_a∂x_b = A t [(b_aᵀ S b_b) I + μ (F b_b)(F b_a)ᵀ + μ (b_a·b_b) F Fᵀ + λ (F b_a)(F b_b)ᵀ],
+    // from dP = dF S + F dS with dF = δ b_bᵀ.
+    const Mat3 FFt = F * F.transpose();
+    std::array<Vec3, 3> Fb;
+    for (int a = 0; a < 3; ++a) Fb[a] = F * b[a];
+    for (int a = 0; a < 3; ++a)
+      for (int c = 0; c < 3; ++c) {
+        H->block<3, 3>(3 * a, 3 * c) =
+            at * (b[a].dot(S * b[c]) * Mat3::Identity() + mu * Fb[c] * Fb[a].transpose() +
+                  mu * b[a].dot(b[c]) * FFt + lambda * Fb[a] * Fb[c].transpose());
+      }
+  }
+  return energy;
+}
+
+StVKMembrane::StVKMembrane(const mesh::TriMesh& mesh, const Material& m)
+    : m_thickness(m.thickness), m_mu(m.mu()), m_lambda(m.lambda_plane_stress()) {
+  std::vector<Element> els(mesh.tris.begin(), mesh.tris.end());
+  m_dm_inv.resize(els.size());
+  m_area.resize(els.size());
+  for (size_t t = 0; t < els.size(); ++t) {
+    Mat2 dm;
+    dm.col(0) = mesh.u.col(els[t][1]) - mesh.u.col(els[t][0]);
+    dm.col(1) = mesh.u.col(els[t][2]) - mesh.u.col(els[t][0]);
+    const double det = dm.determinant();
+    if (!(det > 0.0)) throw_input_error("triangle {}: non-positive material area {}", t, 0.5 * det);
+    m_dm_inv[t] = dm.inverse();
+    m_area[t] = 0.5 * det;
+  }
+  set_elements(std::move(els), mesh.num_vertices());
+}
+
+double StVKMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
+  return stvk_triangle(xe, m_dm_inv[e], m_area[e] * m_thickness, m_mu, m_lambda, g, H);
+}
+
+MassSpringMembrane::MassSpringMembrane(const mesh::TriMesh& mesh, const mesh::Topology& topo, const Material& m) {
+  std::vector<Element> els(topo.edges.begin(), topo.edges.end());
+  m_rest.resize(els.size());
+  m_stiffness.resize(els.size());
+  for (size_t e = 0; e < els.size(); ++e) {
+    const double L = (mesh.u.col(els[e][1]) - mesh.u.col(els[e][0])).norm();
+    double area = 0.0;
+    for (Index t : topo.edge_tris[e])
+      if (t >= 0) area += std::abs(mesh.material_area(t)) / 3.0;
+    m_rest[e] = L;
+    m_stiffness[e] = m.youngs_modulus * m.thickness * area / (L * L);
+  }
+  set_elements(std::move(els), mesh.num_vertices());
+}
+
+double MassSpringMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
+  const Vec3 d = xe.segment<3>(3) - xe.segment<3>(0);
+  const double l = d.norm(), L = m_rest[e], k = m_stiffness[e];
+  if (g) {
+    const Vec3 f = l > 0.0 ? Vec3(k * (l - L) * d / l) : Vec3::Zero();
+    g->segment<3>(0) = -f;
+    g->segment<3>(3) = f;
+  }
+  if (H) {
+    const Vec3 n = l > 0.0 ? Vec3(d / l) : Vec3::UnitX();
+    const Mat3 nn = n * n.transpose();
+    const Mat3 K = k * (nn + (l > 0.0 ? 1.0 - L / l : 0.0) * (Mat3::Identity() - nn));
+    H->block<3, 3>(0, 0) = K;
+    H->block<3, 3>(3, 3) = K;
+    H->block<3, 3>(0, 3) = -K;
+    H->block<3, 3>(3, 0) = -K;
+  }
+  return 0.5 * k * (l - L) * (l - L);
+}
+
+}  // namespace mgcloth::physics

@@ -1,0 +1,27 @@
+#pragma once
+#include <mgcloth/core/types.hpp>
+#include <mgcloth/linalg/block_matrix.hpp>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mgcloth::physics {
+
+/// One additive term of the per-step objective (ARCHITECTURE.md). Elements are small stencils of vertices.
+class Term {
+ public:
+  virtual ~Term() = default;
+  virtual std::string name() const = 0;
+  virtual double value(const VecX& x) const = 0;
+  virtual void add_gradient(const VecX& x, VecX& g) const = 0;
+  /// Adds this term's Hessian into H (whose pattern contains this term's stencils); each element block is
+  /// projected to be positive semi-definite when asked.
+  virtual void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const = 0;
+  /// The (row, col) vertex pairs this term couples, for building the Hessian pattern once.
+  virtual void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const = 0;
+  /// Called once the global pattern exists, so that scatter maps are computed once, not per assembly.
+  virtual void bind(const linalg::BlockMatrix3& /*pattern*/) {}
+};
+
+}  // namespace mgcloth::physics

@@ -1,0 +1,89 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/solvers/newton.hpp>
+
+#include <cmath>
+
+namespace mgcloth::solvers {
+
+Newton::Newton(NewtonParams params) : m_params(std::move(params)), m_linear(linalg::make_linear_solver(m_params.linear_solver)) {}
+
+namespace {
+void check_finite(double e, double gnorm, int iter) {
+  if (!std::isfinite(e) || !std::isfinite(gnorm))
+    throw SolveError(fmt::format("solver diverged: non-finite {} at iteration {}", std::isfinite(e) ? "gradient" : "energy", iter));
+}
+}  // namespace
+
+SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
+  const physics::Objective& obj = *problem.objective;
+  Timer timer;
+  SolveReport rep;
+  VecX g, d, trial;
+  double e = obj.value(x);
+  obj.gradient(x, g);
+  double gnorm = g.norm();
+  check_finite(e, gnorm, 0);
+  rep.initial_grad_norm = gnorm;
+  if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
+  const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
+  const auto energy = [&](const VecX& y) { return obj.value(y); };
+  double shift = 0.0;
+  rep.status = "max_iters";
+  int k = 0;
+  for (; k < stop.max_iters; ++k) {
+    if (gnorm <= target) {
+      rep.status = "converged";
+      break;
+    }
+    if (timer.seconds() > stop.max_seconds) {
+      rep.status = "time_limit";
+      break;
+    }
+    obj.hessian(x, m_hessian, m_params.project_psd);
+    // Levenberg fallback for a Hessian that is singular or indefinite (unprojected, or pins-only constraints).
+    double mean_diag = 0.0;
+    for (Index i = 0; i < m_hessian.rows(); ++i) mean_diag += m_hessian.block(m_hessian.diagonal(i)).trace();
+    mean_diag /= std::max<Index>(1, 3 * m_hessian.rows());
+    shift = shift > 0.0 ? shift * 0.25 : 0.0;
+    if (shift < 1e-10 * mean_diag) shift = 0.0;
+    int tries = 0;
+    while (!m_linear->compute(m_hessian, shift)) {
+      shift = shift > 0.0 ? 10.0 * shift : 1e-8 * mean_diag;
+      if (++tries > 20) throw SolveError(fmt::format("Newton: Hessian could not be made positive definite at iteration {}", k));
+    }
+    m_linear->solve(-g, d);
+    double slope = g.dot(d);
+    if (!(slope < 0.0)) {  // not a descent direction (numerical trouble): fall back to steepest descent
+      d = -g;
+      slope = -gnorm * gnorm;
+    }
+    const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial);
+    if (!ls.success) {
+      // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
+      if (gnorm <= 1e-5 * rep.initial_grad_norm) {
+        rep.status = "stalled";
+        break;
+      }
+      throw SolveError(fmt::format("Newton: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e})", k,
+                                   gnorm, gnorm / rep.initial_grad_norm));
+    }
+    x.swap(trial);
+    if (problem.project) problem.project(x);
+    e = problem.project ? obj.value(x) : ls.energy;
+    obj.gradient(x, g);
+    gnorm = g.norm();
+    check_finite(e, gnorm, k + 1);
+    if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), ls.alpha});
+  }
+  if (k == stop.max_iters && gnorm <= target) rep.status = "converged";
+  rep.iterations = k;
+  rep.converged = rep.status == "converged";
+  rep.energy = e;
+  rep.grad_norm = gnorm;
+  rep.wall_ms = timer.ms();
+  return rep;
+}
+
+}  // namespace mgcloth::solvers

@@ -1,0 +1,28 @@
+#pragma once
+#include <mgcloth/linalg/linear_solver.hpp>
+#include <mgcloth/solvers/line_search.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+namespace mgcloth::solvers {
+
+struct NewtonParams {
+  std::string linear_solver = "cholmod";
+  bool project_psd = true;  ///< per-element PSD projection of the Hessian
+  LineSearchParams line_search;
+};
+
+/// Newton's method with a backtracking line search: H d = −∇E with the (projected) Hessian, solved by a linear
+/// solver; if H is not positive definite, H + σI with growing σ (Levenberg) is used for that iteration.
+class Newton final : public NonlinearSolver {
+ public:
+  explicit Newton(NewtonParams params = {});
+  std::string name() const override { return "newton"; }
+  SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+
+ private:
+  NewtonParams m_params;
+  std::unique_ptr<linalg::LinearSolver> m_linear;
+  linalg::BlockMatrix3 m_hessian;
+};
+
+}  // namespace mgcloth::solvers

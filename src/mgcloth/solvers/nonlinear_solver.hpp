@@ -1,0 +1,57 @@
+#pragma once
+#include <mgcloth/core/types.hpp>
+#include <mgcloth/physics/objective.hpp>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace mgcloth::solvers {
+
+/// What a solver minimizes: the objective, plus hooks a solver may call. Multilevel solvers will find the
+/// hierarchy here too (ARCHITECTURE.md).
+struct Problem {
+  const physics::Objective* objective = nullptr;
+  /// Optional: makes an iterate feasible (obstacle projection, Wang 2018 §4.5); called after accepted updates
+  /// by solvers that support it.
+  std::function<void(VecX&)> project;
+};
+
+struct Stop {
+  double rel_grad = 1e-6;  ///< stop when |∇E(x)| <= rel_grad · |∇E(x_0)|
+  double abs_grad = 0.0;   ///< or when |∇E(x)| <= abs_grad
+  int max_iters = 100;
+  double max_seconds = kInf;
+};
+
+/// One row per iteration (iteration 0 is the start point).
+struct TraceRow {
+  int iteration = 0;
+  double energy = 0.0;
+  double grad_norm = 0.0;
+  double wall_ms = 0.0;  ///< since the solve started
+  double step = 0.0;     ///< line-search step length taken to reach this iterate
+};
+using Trace = std::vector<TraceRow>;
+
+struct SolveReport {
+  int iterations = 0;
+  bool converged = false;
+  double energy = 0.0;
+  double grad_norm = 0.0;
+  double initial_grad_norm = 0.0;
+  double wall_ms = 0.0;
+  std::string status;  ///< "converged", "max_iters", "time_limit", "stalled" (no decrease possible in floating point)
+};
+
+class NonlinearSolver {
+ public:
+  virtual ~NonlinearSolver() = default;
+  virtual std::string name() const = 0;
+  /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
+  /// (non-finite energy or gradient, no descent possible far from a minimum).
+  virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
+};
+
+}  // namespace mgcloth::solvers
