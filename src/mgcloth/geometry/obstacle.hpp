@@ -11,11 +11,14 @@ namespace mgcloth::geometry {
 struct Obstacle {
   std::string name;
   std::shared_ptr<const Shape> shape;
-  std::shared_ptr<const RigidMotion> motion;
+  std::shared_ptr<const RigidMotion> motion;  ///< null: fixed at the identity pose
   double friction = 0.0;  ///< Coulomb coefficient
 
   /// World-frame signed distance at time t (gradient and Hessian rotated into the world frame).
   SdfSample sdf(const Vec3& p, double t) const;
+  /// Same at a pose computed once (motion->pose(t)), for evaluating many points at one time:
+  /// phi(p) = phi_local(Rᵀ(p - c)), grad = R grad_local, H = R H_local Rᵀ.
+  SdfSample sdf(const Vec3& p, const Pose& pose) const;
 };
 
 }  // namespace mgcloth::geometry

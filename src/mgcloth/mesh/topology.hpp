@@ -25,6 +25,27 @@ struct Topology {
   Index num_edges() const { return static_cast<Index>(edges.size()); }
 };
 
+/// The sides of all triangles grouped by undirected edge. Side s = 3t + k runs from tris[t][k] to
+/// tris[t][(k+1)%3]. Groups are ordered by (smaller vertex, larger vertex), sides within a group by s.
+struct EdgeGroups {
+  std::vector<std::array<Index, 2>> edges;  ///< v0 < v1
+  std::vector<Index> offsets;               ///< sides of edge e: sides[offsets[e] .. offsets[e+1])
+  std::vector<Index> sides;
+
+  Index num_edges() const { return static_cast<Index>(edges.size()); }
+  Index count(Index e) const { return offsets[e + 1] - offsets[e]; }
+};
+
+/// Groups triangle sides in linear time (bucketed by smaller vertex, so no global sort). Never throws on bad
+/// input: triangles with an index outside [0, num_vertices) and sides whose two ends coincide are left out.
+EdgeGroups group_triangle_sides(const std::vector<Tri>& tris, Index num_vertices);
+
+/// Vertex loops along the boundary edges (edges with exactly one triangle), each walked in the direction of its
+/// triangle: with triangles CCW in material space, outer boundaries come out CCW and holes CW. Loops are ordered
+/// by their smallest boundary side. Never throws: where orientation is inconsistent a walk may stop before it
+/// closes, and that open chain is returned as a loop.
+std::vector<std::vector<Index>> find_boundary_loops(const std::vector<Tri>& tris, const EdgeGroups& groups);
+
 /// Throws InputError (naming `source`, the edge and its triangles) for non-manifold edges.
 Topology build_topology(const TriMesh& mesh, const std::string& source = "mesh");
 

@@ -15,7 +15,7 @@ std::vector<std::array<Index, 4>> hinge_elements(const mesh::Topology& topo) {
 double rest_weight(const mesh::TriMesh& mesh, const mesh::Hinge& h, double kb) {
   const double e2 = (mesh.u.col(h.v[1]) - mesh.u.col(h.v[0])).squaredNorm();
   const double a = std::abs(mesh.material_area(h.tri[0])) + std::abs(mesh.material_area(h.tri[1]));
-  return kb * e2 / a;
+  return 0.5 * kb * e2 / a;
 }
 double cot(const Vec2& a, const Vec2& b) {
   const double cross = a.x() * b.y() - a.y() * b.x();
@@ -76,7 +76,7 @@ QuadraticBending::QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topolo
     const double c01 = cot(e0, e1), c02 = cot(e0, e2), c03 = cot(-e0, e3), c04 = cot(-e0, e4);
     m_k[h] = Eigen::Vector4d(c03 + c04, c01 + c02, -c01 - c03, -c02 - c04);
     const double a = std::abs(mesh.material_area(topo.hinges[h].tri[0])) + std::abs(mesh.material_area(topo.hinges[h].tri[1]));
-    m_weight[h] = m.bending_stiffness / a;
+    m_weight[h] = 0.5 * m.bending_stiffness / a;
   }
   set_elements(hinge_elements(topo), mesh.num_vertices());
 }

@@ -39,9 +39,10 @@ Eigen::Matrix<S, 12, 1> dihedral_angle_gradient(const Eigen::Matrix<S, 12, 1>& x
 /// Exact ∇²θ by forward-mode differentiation of dihedral_angle_gradient.
 Mat12 dihedral_angle_hessian(const Vec12& x);
 
-/// Hinge bending: E = k_b |ē|²/(Ā1 + Ā2) (θ − θ̄)² per interior edge, with rest quantities from the flat material
-/// state (θ̄ = 0). The weight makes the sum approximate ∫ k_b/2 κ² dA on a cylinder of curvature κ for
-/// quasi-uniform meshes (Grinspun et al. 2003 discrete shells, with k_b the bending rigidity).
+/// Hinge bending: E = k_b |ē|²/(2(Ā1 + Ā2)) (θ − θ̄)² per interior edge, with rest quantities from the flat
+/// material state (θ̄ = 0); the discrete-shells form of Grinspun et al. 2003. The weight is calibrated so that the
+/// sum equals ∫ k_b/2 κ² dA on a cylinder of curvature κ for regular grids (and is within 15% of it on
+/// quasi-uniform Delaunay meshes), making k_b the bending rigidity in N·m.
 class HingeBending final : public ElementTerm<4> {
  public:
   HingeBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
@@ -52,7 +53,7 @@ class HingeBending final : public ElementTerm<4> {
   std::vector<double> m_weight;
 };
 
-/// The quadratic (isometric) bending model of Bergou et al. 2006: E = k_b/(Ā1 + Ā2) |Σ_i K_i x_i|² with the
+/// The quadratic (isometric) bending model of Bergou et al. 2006: E = k_b/(2(Ā1 + Ā2)) |Σ_i K_i x_i|² with the
 /// cotangent weights K = (c03 + c04, c01 + c02, −c01 − c03, −c02 − c04) of the rest hinge. Its Hessian is
 /// constant and positive semi-definite; for small angles it agrees with HingeBending.
 class QuadraticBending final : public ElementTerm<4> {

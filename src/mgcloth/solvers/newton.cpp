@@ -59,7 +59,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       d = -g;
       slope = -gnorm * gnorm;
     }
-    const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial);
+    const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope);
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
       if (gnorm <= 1e-5 * rep.initial_grad_norm) {
@@ -70,12 +70,13 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
                                    gnorm, gnorm / rep.initial_grad_norm));
     }
     x.swap(trial);
-    if (problem.project) problem.project(x);
-    e = problem.project ? obj.value(x) : ls.energy;
+    const double decrease = e - ls.energy;
+    e = ls.energy;
     obj.gradient(x, g);
     gnorm = g.norm();
     check_finite(e, gnorm, k + 1);
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), ls.alpha});
+    logger().debug("newton {:3d}: E = {:.12e}  |g| = {:.3e}  alpha = {:.3g}  shift = {:.2e}  dE/model = {:.3f}", k + 1, e, gnorm, ls.alpha, shift, decrease / (-0.5 * slope * ls.alpha));
   }
   if (k == stop.max_iters && gnorm <= target) rep.status = "converged";
   rep.iterations = k;

@@ -1,0 +1,11 @@
+#pragma once
+#include <CLI/CLI.hpp>
+
+namespace mgcloth::cli {
+
+void add_run_command(CLI::App& app);
+void add_info_command(CLI::App& app);
+/// Runs the subcommand that was parsed; returns the exit code.
+int dispatch(CLI::App& app);
+
+}  // namespace mgcloth::cli

@@ -1,0 +1,31 @@
+// mgcloth command-line tool: one thin layer over the library; every failure becomes one line and exit code 1.
+#include "commands.hpp"
+
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+
+int main(int argc, char** argv) {
+  CLI::App app{"mgcloth: cloth simulation by nonlinear multigrid"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "mgcloth 0.1.0");
+  mgcloth::cli::add_run_command(app);
+  mgcloth::cli::add_info_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    return mgcloth::cli::dispatch(app);
+  } catch (const mgcloth::Error& e) {
+    std::fprintf(stderr, "mgcloth: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mgcloth: error: %s\n", e.what());
+    return 1;
+  }
+}

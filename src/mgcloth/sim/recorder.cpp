@@ -1,0 +1,167 @@
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/sim/recorder.hpp>
+
+#include <fstream>
+#include <sstream>
+
+namespace mgcloth::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+constexpr char kMagic[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '1'};
+
+template <class T>
+void put(std::ostream& o, const T& v) {
+  o.write(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+template <class T>
+T get(std::istream& in, const fs::path& file) {
+  T v;
+  in.read(reinterpret_cast<char*>(&v), sizeof(T));
+  if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
+  return v;
+}
+}  // namespace
+
+std::uint64_t scene_fingerprint(const Scene& scene) {
+  Json j = to_json(scene);
+  j.erase("frames");
+  j.erase("output");
+  j.erase("threads");
+  const std::string s = j.dump();
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+Recorder::Recorder(fs::path dir, const Simulator& sim) : m_dir(std::move(dir)), m_fingerprint(scene_fingerprint(sim.scene())) {
+  Index offset = 0;
+  std::vector<Vec2> u;
+  for (const auto& c : sim.cloths()) {
+    const auto& m = c->mesh();
+    for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(m.u.col(i) / c->material_scale());
+    for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+    offset += m.num_vertices();
+  }
+  m_combined.u.resize(2, offset);
+  for (Index i = 0; i < offset; ++i) m_combined.u.col(i) = u[i];
+  m_combined.x = Mat3X::Zero(3, offset);
+}
+
+std::string Recorder::stats_header() {
+  return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected";
+}
+
+std::string Recorder::stats_row(const StepStats& s) {
+  const auto& r = s.report;
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{}", s.frame, s.step, s.sim_time, s.solver,
+                     r.iterations, r.energy, r.grad_norm, s.wall_ms, s.cloth,
+                     r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected);
+}
+
+fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }
+
+void Recorder::start(const Simulator& sim) {
+  fs::create_directories(m_dir);
+  write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
+  m_rows.clear();
+  // A fresh run in a folder with an older run must not leave stale frames behind that look like ours.
+  for (int f = sim.scene().frames + 1;; ++f) {
+    if (!fs::remove(frame_path(m_dir, f))) break;
+  }
+  write_stats();
+  write_frame(sim);
+  write_checkpoint(sim);
+}
+
+void Recorder::write_frame(const Simulator& sim) const {
+  if (sim.frame() % sim.scene().output.every != 0) return;
+  Mat3X x(3, m_combined.u.cols());
+  Index offset = 0;
+  for (const auto& c : sim.cloths()) {
+    const Index n = c->mesh().num_vertices();
+    x.middleCols(offset, n) = as_columns(c->x());
+    offset += n;
+  }
+  mesh::write_obj(frame_path(m_dir, sim.frame()), m_combined, x, 1.0);
+}
+
+void Recorder::write_checkpoint(const Simulator& sim) const {
+  write_file_atomic(
+      m_dir / "checkpoint.bin",
+      [&](std::ostream& o) {
+        o.write(kMagic, sizeof(kMagic));
+        put(o, m_fingerprint);
+        put<std::int64_t>(o, sim.frame());
+        put<std::int64_t>(o, sim.step_count());
+        put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size()));
+        for (const auto& c : sim.cloths()) {
+          put<std::int64_t>(o, c->x().size());
+          o.write(reinterpret_cast<const char*>(c->x().data()), sizeof(double) * c->x().size());
+          o.write(reinterpret_cast<const char*>(c->v().data()), sizeof(double) * c->v().size());
+        }
+      },
+      true);
+}
+
+void Recorder::write_stats() const {
+  write_file_atomic(m_dir / "stats.csv", [&](std::ostream& o) {
+    o << stats_header() << '\n';
+    for (const auto& r : m_rows) o << r << '\n';
+  });
+}
+
+void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& stats) {
+  for (const auto& s : stats) m_rows.push_back(stats_row(s));
+  write_frame(sim);
+  write_stats();
+  // The checkpoint goes last: when it exists, everything it refers to is complete.
+  write_checkpoint(sim);
+}
+
+void Recorder::resume(Simulator& sim) {
+  const fs::path file = m_dir / "checkpoint.bin";
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: no checkpoint to resume from (was the run started with --out {}?)", file.string(), m_dir.string()));
+  char magic[8];
+  in.read(magic, 8);
+  if (!in || !std::equal(magic, magic + 8, kMagic)) throw InputError(fmt::format("{}: not an mgcloth checkpoint", file.string()));
+  if (get<std::uint64_t>(in, file) != m_fingerprint)
+    throw InputError(fmt::format("{}: written by a different scene (physics, cloths or solver changed); start a new run instead of --resume", file.string()));
+  const auto frame = get<std::int64_t>(in, file);
+  const auto step = get<std::int64_t>(in, file);
+  const auto count = get<std::int64_t>(in, file);
+  if (count != static_cast<std::int64_t>(sim.cloths().size()))
+    throw InputError(fmt::format("{}: has {} cloths, the scene has {}", file.string(), count, sim.cloths().size()));
+  std::vector<VecX> xs, vs;
+  for (std::int64_t c = 0; c < count; ++c) {
+    const auto n = get<std::int64_t>(in, file);
+    if (n != sim.cloths()[c]->x().size()) throw InputError(fmt::format("{}: cloth {} size mismatch", file.string(), c));
+    VecX x(n), v(n);
+    in.read(reinterpret_cast<char*>(x.data()), sizeof(double) * n);
+    in.read(reinterpret_cast<char*>(v.data()), sizeof(double) * n);
+    if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
+    xs.push_back(std::move(x));
+    vs.push_back(std::move(v));
+  }
+  sim.set_state(static_cast<int>(frame), step, xs, vs);
+  // Keep the stats of the steps the checkpoint includes; later rows belong to the interrupted part.
+  m_rows.clear();
+  std::ifstream stats(m_dir / "stats.csv");
+  std::string line;
+  std::getline(stats, line);
+  while (std::getline(stats, line)) {
+    if (line.empty()) continue;
+    const long row_step = std::stol(line.substr(line.find(',') + 1));
+    if (row_step <= step) m_rows.push_back(line);
+  }
+  write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
+  write_stats();
+}
+
+}  // namespace mgcloth::sim

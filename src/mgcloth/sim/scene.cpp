@@ -1,0 +1,365 @@
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/sim/scene.hpp>
+
+#include <cmath>
+
+namespace mgcloth::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+Eigen::Quaterniond euler_xyz_deg(const Vec3& deg) {
+  const Vec3 r = deg * (M_PI / 180.0);
+  // Rotate about X first, then Y, then Z (extrinsic), i.e. R = Rz Ry Rx.
+  return Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
+         Eigen::AngleAxisd(r.x(), Vec3::UnitX());
+}
+
+Json vec_json(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+Json vec_json(const Vec2& v) { return Json::array({v.x(), v.y()}); }
+
+physics::Material parse_material(JsonReader r, std::string& preset) {
+  preset = r.choice("preset", "cotton", material_presets());
+  physics::Material m = material_preset(preset);
+  m.youngs_modulus = r.number("youngs_modulus", m.youngs_modulus, 1.0, 1e12);
+  m.poisson_ratio = r.number("poisson_ratio", m.poisson_ratio, 0.0, 0.499);
+  m.thickness = r.number("thickness", m.thickness, 1e-6, 0.1);
+  m.density = r.number("density", m.density, 1e-3, 1e5);
+  m.bending_stiffness = r.number("bending_stiffness", m.bending_stiffness, 0.0, 1e3);
+  const auto membrane = r.choice("membrane", physics::to_string(m.membrane), {"stvk", "mass_spring"});
+  m.membrane = membrane == "stvk" ? physics::MembraneModel::StVK : physics::MembraneModel::MassSpring;
+  const auto bending = r.choice("bending", physics::to_string(m.bending), {"hinge", "quadratic", "none"});
+  m.bending = bending == "hinge" ? physics::BendingModel::Hinge
+              : bending == "quadratic" ? physics::BendingModel::Quadratic
+                                       : physics::BendingModel::None;
+  r.finish();
+  return m;
+}
+
+MeshSource parse_mesh(JsonReader r, const fs::path& base) {
+  MeshSource s;
+  if (r.has("file")) {
+    const std::string f = r.required_string("file");
+    s.file = (fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
+    s.material_scale = r.number("material_scale", 1.0, 1e-9, 1e9);
+  } else {
+    const std::string gen = r.choice("generator", "rectangle", {"rectangle"});
+    auto& rect = s.rectangle;
+    rect.width = r.number("width", rect.width, 1e-4, 1e3);
+    rect.height = r.number("height", rect.height, 1e-4, 1e3);
+    rect.target_vertices = r.integer("vertices", rect.target_vertices, 4, 5'000'000);
+    rect.unstructured = r.boolean("unstructured", rect.unstructured);
+    rect.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<int>(rect.seed), 0));
+    for (auto h : r.objects("holes")) {
+      mesh::CircleHole hole;
+      hole.center = h.vec2("center", hole.center);
+      hole.radius = h.required_number("radius", 1e-6, 1e3);
+      h.finish();
+      rect.holes.push_back(hole);
+    }
+    if (!rect.holes.empty() && !rect.unstructured) r.fail("holes", "holes need \"unstructured\": true");
+  }
+  r.finish();
+  return s;
+}
+
+PinSpec parse_pin(JsonReader r) {
+  PinSpec p;
+  if (r.has("vertices")) {
+    for (int v : r.integers("vertices")) p.vertices.push_back(v);
+  }
+  if (r.has("points")) {
+    const Json& pts = r.raw("points");
+    if (!pts.is_array()) r.fail("points", "expected an array of [u, v] material coordinates");
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!pts[i].is_array() || pts[i].size() != 2 || !pts[i][0].is_number() || !pts[i][1].is_number())
+        r.fail(fmt::format("points[{}]", i), "expected [u, v] (two numbers)");
+      p.points.emplace_back(pts[i][0].get<double>(), pts[i][1].get<double>());
+    }
+  }
+  if (auto box = r.optional_object("region")) {
+    const Vec2 lo = box->vec2("min", Vec2::Zero()), hi = box->vec2("max", Vec2::Zero());
+    if (!(lo.array() <= hi.array()).all()) box->fail("max", "must be >= min in both coordinates");
+    box->finish();
+    p.region = std::make_pair(lo, hi);
+  }
+  if (p.vertices.empty() && p.points.empty() && !p.region)
+    r.fail("vertices", "a pin needs \"vertices\", \"points\" or \"region\"");
+  p.stiffness = r.number("stiffness", p.stiffness, 1e-6, 1e12);
+  if (auto m = r.optional_object("motion")) {
+    p.motion = m->choice("type", "none", {"none", "constant_velocity", "keyframes"});
+    if (p.motion == "constant_velocity") p.velocity = m->vec3("velocity", Vec3::Zero());
+    if (p.motion == "keyframes") {
+      for (auto& k : m->objects("keys")) {
+        p.key_times.push_back(k.required_number("time", 0.0));
+        p.key_offsets.push_back(k.vec3("offset", Vec3::Zero()));
+        k.finish();
+      }
+      if (p.key_times.empty()) m->fail("keys", "keyframe motion needs at least one key");
+      for (size_t i = 1; i < p.key_times.size(); ++i)
+        if (!(p.key_times[i] > p.key_times[i - 1])) m->fail(fmt::format("keys[{}].time", i), "key times must increase");
+    }
+    m->finish();
+  }
+  r.finish();
+  return p;
+}
+
+ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
+  ClothSpec c;
+  c.name = r.string("name", fmt::format("cloth{}", index));
+  c.mesh = parse_mesh(r.object("mesh"), base);
+  if (auto t = r.optional_object("transform")) {
+    c.transform.translation = t->vec3("translation", Vec3::Zero());
+    c.transform.rotation_deg = t->vec3("rotation_deg", Vec3::Zero());
+    t->finish();
+  }
+  if (auto m = r.optional_object("material")) {
+    c.material = parse_material(*m, c.preset);
+  } else {
+    c.material = material_preset(c.preset);
+  }
+  for (auto& p : r.objects("pins")) c.pins.push_back(parse_pin(p));
+  c.initial_velocity = r.vec3("initial_velocity", Vec3::Zero());
+  r.finish();
+  return c;
+}
+
+ObstacleSpec parse_obstacle(JsonReader r, size_t index) {
+  ObstacleSpec o;
+  o.name = r.string("name", fmt::format("obstacle{}", index));
+  JsonReader s = r.object("shape");
+  o.shape = s.choice("type", "sphere", {"plane", "sphere", "box", "capsule"});
+  if (o.shape == "sphere" || o.shape == "capsule") o.radius = s.required_number("radius", 1e-6, 1e4);
+  if (o.shape == "capsule") o.half_length = s.number("half_length", o.half_length, 0.0, 1e4);
+  if (o.shape == "box") {
+    o.half_extents = s.vec3("half_extents", o.half_extents);
+    if ((o.half_extents.array() <= 0.0).any()) s.fail("half_extents", "every half extent must be > 0");
+  }
+  s.finish();
+  o.position = r.vec3("position", Vec3::Zero());
+  o.rotation_deg = r.vec3("rotation_deg", Vec3::Zero());
+  o.friction = r.number("friction", 0.0, 0.0, 10.0);
+  if (auto m = r.optional_object("motion")) {
+    o.motion = m->choice("type", "static", {"static", "constant_velocity", "keyframes"});
+    if (o.motion == "constant_velocity") {
+      o.linear_velocity = m->vec3("linear_velocity", Vec3::Zero());
+      o.angular_velocity = m->vec3("angular_velocity", Vec3::Zero());
+    }
+    if (o.motion == "keyframes") {
+      for (auto& k : m->objects("keys")) {
+        o.key_times.push_back(k.required_number("time", 0.0));
+        o.key_positions.push_back(k.vec3("position", o.position));
+        o.key_rotations_deg.push_back(k.vec3("rotation_deg", o.rotation_deg));
+        k.finish();
+      }
+      if (o.key_times.empty()) m->fail("keys", "keyframe motion needs at least one key");
+      for (size_t i = 1; i < o.key_times.size(); ++i)
+        if (!(o.key_times[i] > o.key_times[i - 1])) m->fail(fmt::format("keys[{}].time", i), "key times must increase");
+    }
+    m->finish();
+  }
+  r.finish();
+  return o;
+}
+
+}  // namespace
+
+Eigen::Quaterniond Transform::rotation() const { return euler_xyz_deg(rotation_deg); }
+
+geometry::Obstacle ObstacleSpec::build() const {
+  geometry::Obstacle ob;
+  ob.name = name;
+  ob.friction = friction;
+  if (shape == "plane") ob.shape = std::make_shared<geometry::Plane>();
+  if (shape == "sphere") ob.shape = std::make_shared<geometry::Sphere>(radius);
+  if (shape == "box") ob.shape = std::make_shared<geometry::Box>(half_extents);
+  if (shape == "capsule") ob.shape = std::make_shared<geometry::Capsule>(radius, half_length);
+  const geometry::Pose start{euler_xyz_deg(rotation_deg), position};
+  if (motion == "keyframes") {
+    std::vector<geometry::Keyframe> keys;
+    for (size_t k = 0; k < key_times.size(); ++k)
+      keys.push_back({key_times[k], geometry::Pose{euler_xyz_deg(key_rotations_deg[k]), key_positions[k]}});
+    ob.motion = std::make_shared<geometry::KeyframedMotion>(std::move(keys));
+  } else {
+    const bool moving = motion == "constant_velocity";
+    ob.motion = std::make_shared<geometry::ConstantVelocityMotion>(start, moving ? linear_velocity : Vec3::Zero(),
+                                                                   moving ? angular_velocity : Vec3::Zero());
+  }
+  return ob;
+}
+
+std::vector<std::string> material_presets() { return {"cotton", "silk", "denim", "leather"}; }
+
+physics::Material material_preset(const std::string& name) {
+  physics::Material m;  // cotton: the documented defaults
+  if (name == "silk") {
+    m.youngs_modulus = 5.0e5;
+    m.thickness = 2.0e-4;
+    m.density = 400.0;  // 80 g/m²
+    m.bending_stiffness = 5e-7;
+  } else if (name == "denim") {
+    m.youngs_modulus = 4.0e6;
+    m.thickness = 8.0e-4;
+    m.density = 500.0;  // 400 g/m²
+    m.bending_stiffness = 5e-5;
+  } else if (name == "leather") {
+    m.youngs_modulus = 2.0e7;
+    m.thickness = 1.2e-3;
+    m.density = 800.0;
+    m.bending_stiffness = 1e-3;
+    m.poisson_ratio = 0.4;
+  }
+  return m;
+}
+
+Scene parse_scene(const Json& json, const std::string& file, const fs::path& base) {
+  JsonReader r(json, file);
+  Scene s;
+  s.file = file;
+  s.gravity = r.vec3("gravity", s.gravity);
+  s.frame_time = r.number("time_step", s.frame_time, 1e-6, 10.0);
+  s.substeps = r.integer("substeps", s.substeps, 1, 10000);
+  s.frames = r.integer("frames", s.frames, 0, 10'000'000);
+  s.threads = r.integer("threads", s.threads, 0, 1024);
+  const auto cloths = r.objects("cloths");
+  if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  for (size_t i = 0; i < cloths.size(); ++i) s.cloths.push_back(parse_cloth(cloths[i], base, i));
+  const auto obstacles = r.objects("obstacles");
+  for (size_t i = 0; i < obstacles.size(); ++i) s.obstacles.push_back(parse_obstacle(obstacles[i], i));
+  if (auto c = r.optional_object("contact")) {
+    s.contact.thickness = c->number("thickness", s.contact.thickness, 0.0, 1.0);
+    s.contact.stiffness = c->number("stiffness", s.contact.stiffness, 0.0, 1e15);
+    c->finish();
+  }
+  if (auto so = r.optional_object("solver")) {
+    s.solver.name = so->choice("name", s.solver.name, solvers::solver_names());
+    s.solver.stop.rel_grad = so->number("rel_grad", s.solver.stop.rel_grad, 0.0, 1.0);
+    s.solver.stop.abs_grad = so->number("abs_grad", s.solver.stop.abs_grad, 0.0);
+    s.solver.stop.max_iters = so->integer("max_iters", s.solver.stop.max_iters, 1, 1'000'000);
+    s.solver.stop.max_seconds = so->number("max_seconds", 1e30, 0.0);
+    if (so->has("params")) {
+      s.solver.params = so->raw("params");
+      if (!s.solver.params.is_object()) so->fail("params", "expected an object");
+    }
+    so->finish();
+  }
+  (void)solvers::resolved_params(s.solver, file, "solver.params");  // rejects unknown solver parameters now
+  if (auto o = r.optional_object("output")) {
+    s.output.dir = o->string("dir", s.output.dir);
+    s.output.every = o->integer("every", s.output.every, 1, 1'000'000);
+    if (o->has("format")) {
+      s.output.formats.clear();
+      const Json& f = o->raw("format");
+      if (f.is_string()) s.output.formats.push_back(f.get<std::string>());
+      else if (f.is_array())
+        for (const auto& x : f) s.output.formats.push_back(x.is_string() ? x.get<std::string>() : x.dump());
+      else
+        o->fail("format", "expected \"obj\" or a list of formats");
+      for (const auto& fm : s.output.formats)
+        if (fm != "obj") o->fail("format", fmt::format("unknown format \"{}\" (available: obj)", fm));
+    }
+    o->finish();
+  }
+  r.finish();
+  return s;
+}
+
+Scene load_scene(const fs::path& path) {
+  if (!fs::exists(path)) throw InputError(fmt::format("{}: no such scene file", path.string()));
+  const Json j = load_json(path.string());
+  return parse_scene(j, path.string(), path.has_parent_path() ? path.parent_path() : fs::path("."));
+}
+
+Json to_json(const Scene& s) {
+  Json j;
+  j["gravity"] = vec_json(s.gravity);
+  j["time_step"] = s.frame_time;
+  j["substeps"] = s.substeps;
+  j["frames"] = s.frames;
+  j["threads"] = s.threads;
+  j["cloths"] = Json::array();
+  for (const auto& c : s.cloths) {
+    Json cj;
+    cj["name"] = c.name;
+    if (!c.mesh.file.empty()) {
+      cj["mesh"] = {{"file", c.mesh.file}, {"material_scale", c.mesh.material_scale}};
+    } else {
+      const auto& r = c.mesh.rectangle;
+      cj["mesh"] = {{"generator", "rectangle"}, {"width", r.width},      {"height", r.height},
+                    {"vertices", r.target_vertices}, {"unstructured", r.unstructured}, {"seed", r.seed}};
+      if (!r.holes.empty()) {
+        cj["mesh"]["holes"] = Json::array();
+        for (const auto& h : r.holes) cj["mesh"]["holes"].push_back({{"center", vec_json(h.center)}, {"radius", h.radius}});
+      }
+    }
+    cj["transform"] = {{"translation", vec_json(c.transform.translation)}, {"rotation_deg", vec_json(c.transform.rotation_deg)}};
+    const auto& m = c.material;
+    cj["material"] = {{"preset", c.preset},
+                      {"youngs_modulus", m.youngs_modulus},
+                      {"poisson_ratio", m.poisson_ratio},
+                      {"thickness", m.thickness},
+                      {"density", m.density},
+                      {"bending_stiffness", m.bending_stiffness},
+                      {"membrane", physics::to_string(m.membrane)},
+                      {"bending", physics::to_string(m.bending)}};
+    cj["pins"] = Json::array();
+    for (const auto& p : c.pins) {
+      Json pj;
+      if (!p.vertices.empty()) pj["vertices"] = p.vertices;
+      if (!p.points.empty()) {
+        pj["points"] = Json::array();
+        for (const auto& pt : p.points) pj["points"].push_back(vec_json(pt));
+      }
+      if (p.region) pj["region"] = {{"min", vec_json(p.region->first)}, {"max", vec_json(p.region->second)}};
+      pj["stiffness"] = p.stiffness;
+      pj["motion"] = {{"type", p.motion}};
+      if (p.motion == "constant_velocity") pj["motion"]["velocity"] = vec_json(p.velocity);
+      if (p.motion == "keyframes") {
+        pj["motion"]["keys"] = Json::array();
+        for (size_t k = 0; k < p.key_times.size(); ++k)
+          pj["motion"]["keys"].push_back({{"time", p.key_times[k]}, {"offset", vec_json(p.key_offsets[k])}});
+      }
+      cj["pins"].push_back(pj);
+    }
+    cj["initial_velocity"] = vec_json(c.initial_velocity);
+    j["cloths"].push_back(cj);
+  }
+  j["obstacles"] = Json::array();
+  for (const auto& o : s.obstacles) {
+    Json oj;
+    oj["name"] = o.name;
+    oj["shape"] = {{"type", o.shape}};
+    if (o.shape == "sphere" || o.shape == "capsule") oj["shape"]["radius"] = o.radius;
+    if (o.shape == "capsule") oj["shape"]["half_length"] = o.half_length;
+    if (o.shape == "box") oj["shape"]["half_extents"] = vec_json(o.half_extents);
+    oj["position"] = vec_json(o.position);
+    oj["rotation_deg"] = vec_json(o.rotation_deg);
+    oj["friction"] = o.friction;
+    oj["motion"] = {{"type", o.motion}};
+    if (o.motion == "constant_velocity") {
+      oj["motion"]["linear_velocity"] = vec_json(o.linear_velocity);
+      oj["motion"]["angular_velocity"] = vec_json(o.angular_velocity);
+    }
+    if (o.motion == "keyframes") {
+      oj["motion"]["keys"] = Json::array();
+      for (size_t k = 0; k < o.key_times.size(); ++k)
+        oj["motion"]["keys"].push_back({{"time", o.key_times[k]},
+                                        {"position", vec_json(o.key_positions[k])},
+                                        {"rotation_deg", vec_json(o.key_rotations_deg[k])}});
+    }
+    j["obstacles"].push_back(oj);
+  }
+  j["contact"] = {{"thickness", s.contact.thickness}, {"stiffness", s.contact.stiffness}};
+  j["solver"] = {{"name", s.solver.name},
+                 {"rel_grad", s.solver.stop.rel_grad},
+                 {"abs_grad", s.solver.stop.abs_grad},
+                 {"max_iters", s.solver.stop.max_iters},
+                 {"max_seconds", std::isfinite(s.solver.stop.max_seconds) ? s.solver.stop.max_seconds : 1e30},
+                 {"params", solvers::resolved_params(s.solver, s.file, "solver.params")}};
+  j["output"] = {{"dir", s.output.dir}, {"every", s.output.every}, {"format", s.output.formats}};
+  return j;
+}
+
+}  // namespace mgcloth::sim

@@ -1,0 +1,104 @@
+#pragma once
+#include <mgcloth/core/json.hpp>
+#include <mgcloth/geometry/obstacle.hpp>
+#include <mgcloth/mesh/generators.hpp>
+#include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/material.hpp>
+#include <mgcloth/solvers/factory.hpp>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <optional>
+
+namespace mgcloth::sim {
+
+/// Where a cloth's mesh comes from: an OBJ file or the rectangle generator.
+struct MeshSource {
+  std::string file;             ///< resolved path when the mesh is read from OBJ (empty: generated)
+  double material_scale = 1.0;  ///< metres per UV unit
+  mesh::RectangleSpec rectangle;
+};
+
+/// Rigid placement of a cloth's initial state: x = R p + t (R from XYZ Euler angles in degrees).
+struct Transform {
+  Vec3 translation = Vec3::Zero();
+  Vec3 rotation_deg = Vec3::Zero();
+  Eigen::Quaterniond rotation() const;
+};
+
+/// A set of pinned vertices pulled to targets by stiff springs; the targets start at the vertices' initial
+/// positions and follow an offset over time (none, constant velocity, or keyframes).
+struct PinSpec {
+  std::vector<Index> vertices;  ///< by index
+  std::vector<Vec2> points;     ///< by material coordinate: the nearest vertex
+  std::optional<std::pair<Vec2, Vec2>> region;  ///< every vertex in a material-space box
+  double stiffness = 1.0e4;     ///< N/m
+  std::string motion = "none";  ///< none | constant_velocity | keyframes
+  Vec3 velocity = Vec3::Zero();
+  std::vector<double> key_times;
+  std::vector<Vec3> key_offsets;
+};
+
+struct ClothSpec {
+  std::string name = "cloth";
+  MeshSource mesh;
+  Transform transform;
+  std::string preset = "cotton";
+  physics::Material material;
+  std::vector<PinSpec> pins;
+  Vec3 initial_velocity = Vec3::Zero();
+};
+
+struct ObstacleSpec {
+  std::string name;
+  std::string shape = "sphere";  ///< plane | sphere | box | capsule
+  double radius = 0.25;          ///< sphere, capsule
+  Vec3 half_extents{0.5, 0.5, 0.5};  ///< box
+  double half_length = 0.25;     ///< capsule
+  Vec3 position = Vec3::Zero();
+  Vec3 rotation_deg = Vec3::Zero();
+  std::string motion = "static";  ///< static | constant_velocity | keyframes
+  Vec3 linear_velocity = Vec3::Zero();
+  Vec3 angular_velocity = Vec3::Zero();  ///< rad/s, world frame, about the obstacle's origin
+  std::vector<double> key_times;
+  std::vector<Vec3> key_positions;
+  std::vector<Vec3> key_rotations_deg;
+  double friction = 0.0;
+
+  geometry::Obstacle build() const;
+};
+
+struct OutputSpec {
+  std::string dir = "out";
+  int every = 1;  ///< write every n-th frame
+  std::vector<std::string> formats{"obj"};
+};
+
+/// A parsed, validated scene. Construction of the simulation from it is separate (Simulator).
+struct Scene {
+  std::string file;  ///< where it was read from (for messages)
+  Vec3 gravity{0.0, 0.0, -9.81};
+  double frame_time = 1.0 / 30.0;  ///< seconds per frame
+  int substeps = 1;                ///< implicit-Euler steps per frame: h = frame_time / substeps
+  int frames = 60;
+  int threads = 0;                 ///< 0: all cores
+  std::vector<ClothSpec> cloths;
+  std::vector<ObstacleSpec> obstacles;
+  physics::ContactParams contact;
+  solvers::SolverConfig solver;
+  OutputSpec output;
+
+  double step_size() const { return frame_time / substeps; }
+};
+
+/// Parses a scene file: unknown keys, wrong types and out-of-range values are InputError naming file and path.
+/// Relative mesh paths are resolved against the scene file's folder.
+Scene load_scene(const std::filesystem::path& path);
+Scene parse_scene(const Json& json, const std::string& file, const std::filesystem::path& base_dir);
+/// Every field with its value, defaults included (written next to the outputs as the resolved scene).
+Json to_json(const Scene& scene);
+/// Material presets by name ("cotton", "silk", "denim", "leather").
+physics::Material material_preset(const std::string& name);
+std::vector<std::string> material_presets();
+
+}  // namespace mgcloth::sim

@@ -1,0 +1,80 @@
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/sim/simulator.hpp>
+
+namespace mgcloth::sim {
+
+Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
+  if (m_scene.threads > 0) set_num_threads(m_scene.threads);
+  for (const auto& o : m_scene.obstacles) m_obstacles.push_back(o.build());
+  for (const auto& c : m_scene.cloths) {
+    m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity));
+    // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
+    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver"));
+  }
+}
+
+std::vector<StepStats> Simulator::step() {
+  const double h = m_scene.step_size();
+  const double t = time();
+  std::vector<StepStats> out;
+  for (size_t c = 0; c < m_cloths.size(); ++c) {
+    Timer timer;
+    ClothBody& body = *m_cloths[c];
+    VecX x = body.prepare_step(t, h);
+    solvers::Problem problem;
+    problem.objective = &body.objective();
+    if (body.contact()) {
+      const auto* contact = body.contact();
+      problem.project = [contact](VecX& y) {
+        physics::project_out_of_obstacles(y, contact->obstacles(), contact->poses());
+      };
+    }
+    StepStats s;
+    try {
+      s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, nullptr);
+    } catch (const SolveError& e) {
+      throw SolveError(fmt::format("{}: cloth \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
+                                   m_frame + 1, m_step + 1, t + h, e.what()));
+    }
+    const VecX before = x;
+    body.finish_step(x, t + h, h);
+    s.projected = static_cast<Index>(((x - before).array() != 0.0).reshaped(3, x.size() / 3).colwise().any().count());
+    s.frame = m_frame + 1;
+    s.step = m_step + 1;
+    s.sim_time = t + h;
+    s.cloth = body.name();
+    s.solver = m_solvers[c]->name();
+    s.wall_ms = timer.ms();
+    out.push_back(std::move(s));
+  }
+  ++m_step;
+  return out;
+}
+
+std::vector<StepStats> Simulator::advance_frame() {
+  std::vector<StepStats> out;
+  for (int s = 0; s < m_scene.substeps; ++s) {
+    auto st = step();
+    out.insert(out.end(), st.begin(), st.end());
+  }
+  ++m_frame;
+  return out;
+}
+
+void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v) {
+  if (x.size() != m_cloths.size() || v.size() != m_cloths.size())
+    throw InputError(fmt::format("checkpoint has {} cloths, the scene has {}", x.size(), m_cloths.size()));
+  for (size_t c = 0; c < m_cloths.size(); ++c) {
+    if (x[c].size() != m_cloths[c]->x().size() || v[c].size() != m_cloths[c]->v().size())
+      throw InputError(fmt::format("checkpoint: cloth \"{}\" has {} dofs, the scene's mesh has {}", m_cloths[c]->name(),
+                                   x[c].size(), m_cloths[c]->x().size()));
+    m_cloths[c]->x() = x[c];
+    m_cloths[c]->v() = v[c];
+  }
+  m_frame = frame;
+  m_step = step;
+}
+
+}  // namespace mgcloth::sim

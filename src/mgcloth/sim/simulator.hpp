@@ -1,0 +1,55 @@
+#pragma once
+#include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+#include <memory>
+
+namespace mgcloth::sim {
+
+/// Statistics of one implicit-Euler step of one cloth.
+struct StepStats {
+  int frame = 0;
+  long step = 0;
+  double sim_time = 0.0;
+  std::string cloth;
+  std::string solver;
+  solvers::SolveReport report;
+  double wall_ms = 0.0;  ///< the whole step: set-up, solve, projection, friction
+  Index projected = 0;   ///< vertices pushed out of obstacles after the solve
+};
+
+/// The time loop: every step minimizes each cloth's incremental potential with the scene's solver
+/// (ARCHITECTURE.md data flow), then projects contacts and filters friction.
+class Simulator {
+ public:
+  explicit Simulator(Scene scene);
+
+  const Scene& scene() const { return m_scene; }
+  std::vector<std::unique_ptr<ClothBody>>& cloths() { return m_cloths; }
+  const std::vector<std::unique_ptr<ClothBody>>& cloths() const { return m_cloths; }
+  const std::vector<geometry::Obstacle>& obstacles() const { return m_obstacles; }
+
+  /// Completed frames and steps; time is derived from the step count so that a resumed run lands on the same
+  /// floating-point times as an uninterrupted one.
+  int frame() const { return m_frame; }
+  long step_count() const { return m_step; }
+  double time() const { return static_cast<double>(m_step) * m_scene.step_size(); }
+
+  /// Runs the substeps of the next frame.
+  std::vector<StepStats> advance_frame();
+  /// One step of every cloth.
+  std::vector<StepStats> step();
+
+  /// State for checkpoints: frame, step, and every cloth's x and v.
+  void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
+
+ private:
+  Scene m_scene;
+  std::vector<geometry::Obstacle> m_obstacles;
+  std::vector<std::unique_ptr<ClothBody>> m_cloths;
+  std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
+  int m_frame = 0;
+  long m_step = 0;
+};
+
+}  // namespace mgcloth::sim
