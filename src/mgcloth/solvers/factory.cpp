@@ -9,6 +9,7 @@ NewtonParams newton_params(const Json& j, const std::string& file, const std::st
   NewtonParams p;
   p.linear_solver = r.choice("linear_solver", p.linear_solver, {"cholmod"});
   p.project_psd = r.boolean("project_psd", p.project_psd);
+  p.exact_hessian_below = r.number("exact_hessian_below", p.exact_hessian_below, 0.0, 1.0);
   p.line_search.armijo = r.number("armijo", p.line_search.armijo, 1e-12, 0.5);
   p.line_search.shrink = r.number("backtrack", p.line_search.shrink, 0.01, 0.99);
   p.line_search.max_steps = r.integer("max_line_search_steps", p.line_search.max_steps, 1, 200);
@@ -18,6 +19,7 @@ NewtonParams newton_params(const Json& j, const std::string& file, const std::st
 Json to_json(const NewtonParams& p) {
   return {{"linear_solver", p.linear_solver},
           {"project_psd", p.project_psd},
+          {"exact_hessian_below", p.exact_hessian_below},
           {"armijo", p.line_search.armijo},
           {"backtrack", p.line_search.shrink},
           {"max_line_search_steps", p.line_search.max_steps}};

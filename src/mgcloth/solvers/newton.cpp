@@ -41,23 +41,50 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       rep.status = "time_limit";
       break;
     }
-    obj.hessian(x, m_hessian, m_params.project_psd);
-    // Levenberg fallback for a Hessian that is singular or indefinite (unprojected, or pins-only constraints).
-    double mean_diag = 0.0;
-    for (Index i = 0; i < m_hessian.rows(); ++i) mean_diag += m_hessian.block(m_hessian.diagonal(i)).trace();
-    mean_diag /= std::max<Index>(1, 3 * m_hessian.rows());
-    shift = shift > 0.0 ? shift * 0.25 : 0.0;
-    if (shift < 1e-10 * mean_diag) shift = 0.0;
-    int tries = 0;
-    while (!m_linear->compute(m_hessian, shift)) {
-      shift = shift > 0.0 ? 10.0 * shift : 1e-8 * mean_diag;
-      if (++tries > 20) throw SolveError(fmt::format("Newton: Hessian could not be made positive definite at iteration {}", k));
+    bool factored = false;
+    if (m_params.project_psd && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
+      obj.hessian(x, m_hessian, false);
+      factored = m_linear->compute(m_hessian, 0.0);
+      if (factored) shift = 0.0;
+    }
+    if (!factored) {
+      obj.hessian(x, m_hessian, m_params.project_psd);
+      // Levenberg fallback for a Hessian that is singular or indefinite (unprojected, or pins-only constraints).
+      double mean_diag = 0.0;
+      for (Index i = 0; i < m_hessian.rows(); ++i) mean_diag += m_hessian.block(m_hessian.diagonal(i)).trace();
+      mean_diag /= std::max<Index>(1, 3 * m_hessian.rows());
+      shift = shift > 0.0 ? shift * 0.25 : 0.0;
+      if (shift < 1e-10 * mean_diag) shift = 0.0;
+      int tries = 0;
+      while (!m_linear->compute(m_hessian, shift)) {
+        shift = shift > 0.0 ? 10.0 * shift : 1e-8 * mean_diag;
+        if (++tries > 20) throw SolveError(fmt::format("Newton: Hessian could not be made positive definite at iteration {}", k));
+      }
     }
     m_linear->solve(-g, d);
     double slope = g.dot(d);
     if (!(slope < 0.0)) {  // not a descent direction (numerical trouble): fall back to steepest descent
       d = -g;
       slope = -gnorm * gnorm;
+    }
+    // Once the predicted decrease is below the round-off of the energy itself, the Armijo test compares noise;
+    // there, a full step is judged by the gradient norm instead.
+    if (-slope < 1e-13 * std::max(1.0, std::abs(e))) {
+      trial = x + d;
+      VecX g_trial;
+      obj.gradient(trial, g_trial);
+      const double gn = g_trial.norm();
+      if (!(gn < gnorm)) {
+        rep.status = "stalled";
+        break;
+      }
+      x.swap(trial);
+      g.swap(g_trial);
+      gnorm = gn;
+      e = obj.value(x);
+      check_finite(e, gnorm, k + 1);
+      if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
+      continue;
     }
     const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope);
     if (!ls.success) {

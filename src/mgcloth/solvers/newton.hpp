@@ -8,11 +8,16 @@ namespace mgcloth::solvers {
 struct NewtonParams {
   std::string linear_solver = "cholmod";
   bool project_psd = true;  ///< per-element PSD projection of the Hessian
+  /// Below this relative gradient, the exact (unprojected) Hessian is tried first and kept when it is positive
+  /// definite: near a stable minimum it usually is, and exact Newton converges quadratically where the projected
+  /// Hessian (which misrepresents compressed elements) only converges linearly. 0 disables.
+  double exact_hessian_below = 1e-2;
   LineSearchParams line_search;
 };
 
 /// Newton's method with a backtracking line search: H d = −∇E with the (projected) Hessian, solved by a linear
 /// solver; if H is not positive definite, H + σI with growing σ (Levenberg) is used for that iteration.
+/// Convergence is measured by the gradient norm relative to the start point's.
 class Newton final : public NonlinearSolver {
  public:
   explicit Newton(NewtonParams params = {});

@@ -1,0 +1,89 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/linalg/block_matrix.hpp>
+#include <mgcloth/linalg/cholmod_solver.hpp>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace mgcloth;
+using namespace mgcloth::linalg;
+
+namespace {
+/// A random SPD block matrix on a ring-with-chords graph.
+BlockMatrix3 random_spd(Index n, std::uint64_t seed) {
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i < n; ++i) {
+    pairs.emplace_back(i, (i + 1) % n);
+    pairs.emplace_back(i, (i + 7) % n);
+  }
+  BlockMatrix3 A(n, pairs);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (Index r = 0; r < n; ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
+      const Index c = A.col_indices()[k];
+      if (c < r) continue;
+      Mat3 b;
+      for (int i = 0; i < 9; ++i) b.data()[i] = u(rng);
+      if (c == r) b = b * b.transpose() + 20.0 * Mat3::Identity();
+      A.block(k) = b;
+      A.block(A.find(c, r)) = b.transpose();
+    }
+  return A;
+}
+}  // namespace
+
+TEST(BlockMatrix3, PatternIsSymmetricSortedWithDiagonal) {
+  BlockMatrix3 A(5, {{0, 3}, {2, 1}, {2, 1}});
+  EXPECT_EQ(A.num_blocks(), 5 + 4);
+  for (Index r = 0; r < 5; ++r) {
+    EXPECT_GE(A.diagonal(r), 0);
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
+      EXPECT_GE(A.find(A.col_indices()[k], r), 0);
+      if (k > A.row_offsets()[r]) {
+        EXPECT_LT(A.col_indices()[k - 1], A.col_indices()[k]);
+      }
+    }
+  }
+  EXPECT_EQ(A.find(0, 1), -1);
+  EXPECT_THROW(BlockMatrix3(3, {{0, 3}}), Error);
+}
+
+TEST(BlockMatrix3, MultiplyMatchesScalarSparse) {
+  const BlockMatrix3 A = random_spd(200, 1);
+  const VecX x = VecX::Random(600);
+  const VecX y = A * x;
+  const VecX y_ref = A.to_sparse() * x;
+  EXPECT_LE((y - y_ref).norm(), 1e-12 * y_ref.norm());
+}
+
+TEST(CholmodSolver, SolvesAndReusesSymbolicAnalysis) {
+  BlockMatrix3 A = random_spd(300, 2);
+  CholmodSolver chol;
+  for (int round = 0; round < 3; ++round) {
+    for (auto& b : A.blocks()) b *= 1.5;  // new values, same pattern
+    ASSERT_TRUE(chol.factorize(A));
+    const VecX b = VecX::Random(900);
+    VecX x;
+    chol.solve(b, x);
+    EXPECT_LE((A * x - b).norm(), 1e-10 * b.norm());
+  }
+  EXPECT_EQ(chol.analyses(), 1);
+  // A shift is applied to the diagonal only.
+  ASSERT_TRUE(chol.factorize(A, 3.0));
+  const VecX b = VecX::Random(900);
+  VecX x;
+  chol.solve(b, x);
+  EXPECT_LE((A * x + 3.0 * x - b).norm(), 1e-10 * b.norm());
+  // A different pattern triggers a new analysis.
+  ASSERT_TRUE(chol.factorize(random_spd(50, 3)));
+  EXPECT_EQ(chol.analyses(), 2);
+}
+
+TEST(CholmodSolver, ReportsIndefiniteMatrix) {
+  BlockMatrix3 A = random_spd(40, 4);
+  A.block(A.diagonal(5)) = -Mat3::Identity();
+  CholmodSolver chol;
+  EXPECT_FALSE(chol.factorize(A));
+}
