@@ -30,6 +30,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
   const auto energy = [&](const VecX& y) { return obj.value(y); };
   double shift = 0.0;
+  bool try_exact = true;
   rep.status = "max_iters";
   int k = 0;
   for (; k < stop.max_iters; ++k) {
@@ -42,9 +43,12 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       break;
     }
     bool factored = false;
-    if (m_params.project_psd && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
+    if (m_params.project_psd && try_exact && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
       obj.hessian(x, m_hessian, false);
       factored = m_linear->compute(m_hessian, 0.0);
+      // An indefinite exact Hessian means the iterate is not yet in a convex basin; retrying every iteration
+      // would double the cost of each one, so the rest of this solve stays projected.
+      try_exact = factored;
       if (factored) shift = 0.0;
     }
     if (!factored) {
