@@ -41,7 +41,8 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
   MeshSource s;
   if (r.has("file")) {
     const std::string f = r.required_string("file");
-    s.file = (fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
+    // Absolute, so that the resolved scene and a --resume work from any working directory.
+    s.file = fs::absolute(fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
     s.material_scale = r.number("material_scale", 1.0, 1e-9, 1e9);
   } else {
     const std::string gen = r.choice("generator", "rectangle", {"rectangle"});
@@ -225,7 +226,12 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   s.threads = r.integer("threads", s.threads, 0, 1024);
   const auto cloths = r.objects("cloths");
   if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
-  for (size_t i = 0; i < cloths.size(); ++i) s.cloths.push_back(parse_cloth(cloths[i], base, i));
+  for (size_t i = 0; i < cloths.size(); ++i) {
+    s.cloths.push_back(parse_cloth(cloths[i], base, i));
+    for (size_t j = 0; j < i; ++j)
+      if (s.cloths[j].name == s.cloths[i].name)
+        cloths[i].fail("name", fmt::format("duplicate cloth name \"{}\" (also cloths[{}])", s.cloths[i].name, j));
+  }
   const auto obstacles = r.objects("obstacles");
   for (size_t i = 0; i < obstacles.size(); ++i) s.obstacles.push_back(parse_obstacle(obstacles[i], i));
   if (auto c = r.optional_object("contact")) {
@@ -257,6 +263,7 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
         for (const auto& x : f) s.output.formats.push_back(x.is_string() ? x.get<std::string>() : x.dump());
       else
         o->fail("format", "expected \"obj\" or a list of formats");
+      if (s.output.formats.empty()) o->fail("format", "needs at least one format (available: obj)");
       for (const auto& fm : s.output.formats)
         if (fm != "obj") o->fail("format", fmt::format("unknown format \"{}\" (available: obj)", fm));
     }

@@ -7,9 +7,20 @@ namespace mgcloth::sim {
 
 Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
   if (m_scene.threads > 0) set_num_threads(m_scene.threads);
-  for (const auto& o : m_scene.obstacles) m_obstacles.push_back(o.build());
-  for (const auto& c : m_scene.cloths) {
-    m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity));
+  for (size_t i = 0; i < m_scene.obstacles.size(); ++i) {
+    try {
+      m_obstacles.push_back(m_scene.obstacles[i].build());
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: obstacles[{}] (\"{}\"): {}", m_scene.file, i, m_scene.obstacles[i].name, e.what()));
+    }
+  }
+  for (size_t i = 0; i < m_scene.cloths.size(); ++i) {
+    const auto& c = m_scene.cloths[i];
+    try {
+      m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity));
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
+    }
     // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
     m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver"));
   }

@@ -1,0 +1,93 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/sim/scene.hpp>
+
+#include <gtest/gtest.h>
+
+using namespace mgcloth;
+
+namespace {
+Json minimal() {
+  return Json::parse(R"({
+    "cloths": [ { "mesh": { "generator": "rectangle", "vertices": 100 } } ]
+  })");
+}
+std::string error_of(const Json& j) {
+  try {
+    sim::parse_scene(j, "scene.json", ".");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(Scene, DefaultsAreFilledAndResolvedSceneRoundTrips) {
+  const auto s = sim::parse_scene(minimal(), "scene.json", ".");
+  EXPECT_EQ(s.cloths.size(), 1u);
+  EXPECT_NEAR(s.cloths[0].material.youngs_modulus, 1e6, 0);
+  EXPECT_EQ(s.solver.name, "newton");
+  const Json resolved = sim::to_json(s);
+  EXPECT_TRUE(resolved["solver"]["params"].contains("linear_solver"));
+  // The resolved scene is itself a valid scene that resolves to the same thing.
+  const auto again = sim::parse_scene(resolved, "resolved.json", ".");
+  EXPECT_EQ(sim::to_json(again), resolved);
+}
+
+TEST(Scene, UnknownKeysAreRejectedByPath) {
+  Json j = minimal();
+  j["cloths"][0]["material"] = {{"youngs_modulis", 1e6}};
+  EXPECT_NE(error_of(j).find("scene.json: cloths[0].material.youngs_modulis: unknown key"), std::string::npos) << error_of(j);
+  j = minimal();
+  j["solvr"] = Json::object();
+  EXPECT_NE(error_of(j).find("solvr: unknown key"), std::string::npos);
+  j = minimal();
+  j["solver"] = {{"params", {{"armijoo", 0.1}}}};
+  EXPECT_NE(error_of(j).find("solver.params.armijoo: unknown key"), std::string::npos) << error_of(j);
+}
+
+TEST(Scene, BadValuesNameTheField) {
+  Json j = minimal();
+  j["cloths"][0]["material"] = {{"youngs_modulus", -5.0}};
+  EXPECT_NE(error_of(j).find("cloths[0].material.youngs_modulus: must be in"), std::string::npos) << error_of(j);
+  j = minimal();
+  j["time_step"] = "fast";
+  EXPECT_NE(error_of(j).find("time_step: expected a number"), std::string::npos) << error_of(j);
+  j = minimal();
+  j["cloths"][0]["material"] = {{"poisson_ratio", 0.7}};
+  EXPECT_NE(error_of(j).find("poisson_ratio"), std::string::npos);
+  j = minimal();
+  j["obstacles"] = Json::array({{{"shape", {{"type", "cone"}}}}});
+  EXPECT_NE(error_of(j).find("obstacles[0].shape.type: unknown value \"cone\""), std::string::npos) << error_of(j);
+  j = minimal();
+  j["cloths"] = Json::array();
+  EXPECT_NE(error_of(j).find("cloths"), std::string::npos);
+  j = minimal();
+  j["gravity"] = {0, 0};
+  EXPECT_NE(error_of(j).find("gravity: expected 3 numbers"), std::string::npos);
+  j = minimal();
+  j["cloths"].push_back(j["cloths"][0]);
+  j["cloths"][0]["name"] = "a";
+  j["cloths"][1]["name"] = "a";
+  EXPECT_NE(error_of(j).find("duplicate cloth name"), std::string::npos);
+}
+
+TEST(Scene, MalformedJsonGivesLineAndColumn) {
+  try {
+    parse_json("{\n  \"frames\": 3,\n  \"cloths\": [ ,]\n}", "bad.json");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json:3:"), std::string::npos) << e.what();
+  }
+  // NaN is not JSON: it is a syntax error, never a silently accepted value.
+  EXPECT_THROW(parse_json("{\"time_step\": NaN}", "nan.json"), InputError);
+}
+
+TEST(Scene, MissingFileIsAnInputError) {
+  EXPECT_THROW(sim::load_scene("/nonexistent/scene.json"), InputError);
+}
+
+TEST(Scene, ShippedScenesParse) {
+  for (const char* name : {"drape_sphere", "hanging", "tablecloth", "rotating_sphere"}) {
+    EXPECT_NO_THROW(sim::load_scene(std::string(MGCLOTH_SOURCE_DIR) + "/scenes/" + name + ".json")) << name;
+  }
+}
