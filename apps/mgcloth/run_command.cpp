@@ -22,6 +22,7 @@ struct RunOptions {
   bool resume = false;
   bool quiet = false;
   bool verbose = false;
+  bool trace = false;
 } g_run;
 
 struct InfoOptions {
@@ -49,7 +50,8 @@ int run() {
 
   Timer setup;
   sim::Simulator sim(std::move(scene));
-  sim::Recorder rec(dir, sim);
+  sim.set_record_trace(g_run.trace);
+  sim::Recorder rec(dir, sim, g_run.trace);
   if (g_run.resume) {
     rec.resume(sim);
   } else {
@@ -79,7 +81,7 @@ int run() {
     progress.update(sim.frame(), frame_timer.seconds(), iterations, stats.back().report.energy);
   }
   progress.finish();
-  progress.message(fmt::format("wrote {} frames to {}", total, dir.string()));
+  progress.message(fmt::format("done: frames 0-{} in {}", sim.frame(), dir.string()));
   return 0;
 }
 
@@ -99,6 +101,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--solver,-s", g_run.solver, "Solver name (overrides the scene's solver.name)");
   cmd->add_option("--threads,-j", g_run.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
   cmd->add_flag("--resume", g_run.resume, "Continue an interrupted run in --out from its last complete frame");
+  cmd->add_flag("--trace", g_run.trace, "Also write trace.csv: energy, gradient norm and wall time of every solver iteration");
   cmd->add_flag("--quiet,-q", g_run.quiet, "No progress output");
   cmd->add_flag("--verbose,-v", g_run.verbose, "Log solver details");
 }

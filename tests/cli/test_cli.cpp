@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <sys/wait.h>
 
 namespace fs = std::filesystem;
@@ -67,6 +68,26 @@ TEST_F(Cli, RunWritesFramesStatsResolvedSceneAndCheckpoint) {
   EXPECT_NE(mgcloth::read_file(dir / "out" / "frame_00004.obj").find("\nvt "), std::string::npos);
   // No temporary files are left behind.
   for (const auto& e : fs::directory_iterator(dir / "out")) EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos);
+}
+
+TEST_F(Cli, TraceRecordsEveryIteration) {
+  const auto r = run("run " + small_scene() + " -q --trace --frames 2 --out " + (dir / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto trace = mgcloth::read_file(dir / "out" / "trace.csv");
+  EXPECT_EQ(trace.rfind("frame,step,cloth,iteration,energy,grad_norm,wall_ms,alpha", 0), 0u);
+  // Every step contributes its iteration-0 row plus one per iteration.
+  long expected = 0;
+  const auto stats = mgcloth::read_file(dir / "out" / "stats.csv");
+  std::istringstream in(stats);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::istringstream cols(line);
+    std::string c;
+    for (int k = 0; k < 5; ++k) std::getline(cols, c, ',');
+    expected += 1 + std::stol(c);
+  }
+  EXPECT_EQ(std::count(trace.begin(), trace.end(), '\n'), expected + 1);
 }
 
 TEST_F(Cli, QuietPrintsNothing) {

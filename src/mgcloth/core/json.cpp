@@ -148,7 +148,8 @@ std::vector<JsonReader> JsonReader::objects(const std::string& key) {
 
 void JsonReader::finish() const {
   for (auto it = m_json->begin(); it != m_json->end(); ++it) {
-    if (!m_used.count(it.key())) fail(it.key(), "unknown key");
+    // null means "absent" everywhere, so an explicit null is never an unknown key.
+    if (!m_used.count(it.key()) && !it.value().is_null()) fail(it.key(), "unknown key");
   }
 }
 

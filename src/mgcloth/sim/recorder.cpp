@@ -39,7 +39,12 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   return h;
 }
 
-Recorder::Recorder(fs::path dir, const Simulator& sim) : m_dir(std::move(dir)), m_fingerprint(scene_fingerprint(sim.scene())) {
+Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
+    : m_dir(std::move(dir)), m_fingerprint(scene_fingerprint(sim.scene())), m_record_trace(trace) {
+  m_stats.name = "stats.csv";
+  m_stats.header = stats_header();
+  m_trace.name = "trace.csv";
+  m_trace.header = "frame,step,cloth,iteration,energy,grad_norm,wall_ms,alpha";
   Index offset = 0;
   std::vector<Vec2> u;
   for (const auto& c : sim.cloths()) {
@@ -69,12 +74,14 @@ fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt
 void Recorder::start(const Simulator& sim) {
   fs::create_directories(m_dir);
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
-  m_rows.clear();
+  m_stats.rows.clear();
+  m_trace.rows.clear();
   // A fresh run in a folder with an older run must not leave stale frames behind that look like ours.
-  for (int f = sim.scene().frames + 1;; ++f) {
-    if (!fs::remove(frame_path(m_dir, f))) break;
+  for (const auto& entry : fs::directory_iterator(m_dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() == 15 && name.rfind("frame_", 0) == 0 && entry.path().extension() == ".obj") fs::remove(entry.path());
   }
-  write_stats();
+  write_logs();
   write_frame(sim);
   write_checkpoint(sim);
 }
@@ -109,17 +116,40 @@ void Recorder::write_checkpoint(const Simulator& sim) const {
       true);
 }
 
-void Recorder::write_stats() const {
-  write_file_atomic(m_dir / "stats.csv", [&](std::ostream& o) {
-    o << stats_header() << '\n';
-    for (const auto& r : m_rows) o << r << '\n';
+void Recorder::CsvLog::write(const fs::path& dir) const {
+  write_file_atomic(dir / name, [&](std::ostream& o) {
+    o << header << '\n';
+    for (const auto& r : rows) o << r << '\n';
   });
 }
 
+void Recorder::CsvLog::load_up_to_step(const fs::path& dir, long step) {
+  rows.clear();
+  std::ifstream in(dir / name);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    // Both logs start with frame,step; rows past the checkpoint belong to the interrupted part.
+    const auto comma = line.find(',');
+    if (line.empty() || comma == std::string::npos) continue;
+    if (std::stol(line.substr(comma + 1)) <= step) rows.push_back(line);
+  }
+}
+
+void Recorder::write_logs() const {
+  m_stats.write(m_dir);
+  if (m_record_trace) m_trace.write(m_dir);
+}
+
 void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& stats) {
-  for (const auto& s : stats) m_rows.push_back(stats_row(s));
+  for (const auto& s : stats) {
+    m_stats.rows.push_back(stats_row(s));
+    for (const auto& t : s.trace)
+      m_trace.rows.push_back(fmt::format("{},{},{},{},{:.17g},{:.9g},{:.3f},{:.6g}", s.frame, s.step, s.cloth, t.iteration,
+                                         t.energy, t.grad_norm, t.wall_ms, t.step));
+  }
   write_frame(sim);
-  write_stats();
+  write_logs();
   // The checkpoint goes last: when it exists, everything it refers to is complete.
   write_checkpoint(sim);
 }
@@ -150,18 +180,10 @@ void Recorder::resume(Simulator& sim) {
     vs.push_back(std::move(v));
   }
   sim.set_state(static_cast<int>(frame), step, xs, vs);
-  // Keep the stats of the steps the checkpoint includes; later rows belong to the interrupted part.
-  m_rows.clear();
-  std::ifstream stats(m_dir / "stats.csv");
-  std::string line;
-  std::getline(stats, line);
-  while (std::getline(stats, line)) {
-    if (line.empty()) continue;
-    const long row_step = std::stol(line.substr(line.find(',') + 1));
-    if (row_step <= step) m_rows.push_back(line);
-  }
+  m_stats.load_up_to_step(m_dir, step);
+  if (m_record_trace) m_trace.load_up_to_step(m_dir, step);
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
-  write_stats();
+  write_logs();
 }
 
 }  // namespace mgcloth::sim

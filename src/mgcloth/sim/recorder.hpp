@@ -11,7 +11,9 @@ namespace mgcloth::sim {
 /// leaves only complete files, and `resume()` continues it from its last checkpoint.
 class Recorder {
  public:
-  Recorder(std::filesystem::path dir, const Simulator& sim);
+  /// With `trace`, also trace.csv: one row per solver iteration (frame, step, cloth, iteration, energy,
+  /// gradient norm, wall time, line-search step).
+  Recorder(std::filesystem::path dir, const Simulator& sim, bool trace = false);
 
   const std::filesystem::path& dir() const { return m_dir; }
   /// Starts a fresh run: writes the resolved scene and frame 0.
@@ -29,12 +31,20 @@ class Recorder {
  private:
   void write_frame(const Simulator& sim) const;
   void write_checkpoint(const Simulator& sim) const;
-  void write_stats() const;
+  void write_logs() const;
 
   std::filesystem::path m_dir;
   std::uint64_t m_fingerprint = 0;
   mesh::TriMesh m_combined;  ///< all cloths in one mesh for frame files (vt in each cloth's UV units)
-  std::vector<std::string> m_rows;
+  /// A CSV file kept in memory and rewritten atomically, so that it always matches the checkpoint.
+  struct CsvLog {
+    std::string name, header;
+    std::vector<std::string> rows;
+    void load_up_to_step(const std::filesystem::path& dir, long step);
+    void write(const std::filesystem::path& dir) const;
+  };
+  CsvLog m_stats, m_trace;
+  bool m_record_trace;
 };
 
 /// FNV-1a hash of the physical content of a scene (everything but frame count and output settings), so that a

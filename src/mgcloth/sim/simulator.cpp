@@ -44,7 +44,7 @@ std::vector<StepStats> Simulator::step() {
     }
     StepStats s;
     try {
-      s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, nullptr);
+      s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
     } catch (const SolveError& e) {
       throw SolveError(fmt::format("{}: cloth \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
                                    m_frame + 1, m_step + 1, t + h, e.what()));

@@ -16,6 +16,7 @@ struct StepStats {
   solvers::SolveReport report;
   double wall_ms = 0.0;  ///< the whole step: set-up, solve, projection, friction
   Index projected = 0;   ///< vertices pushed out of obstacles after the solve
+  solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
 };
 
 /// The time loop: every step minimizes each cloth's incremental potential with the scene's solver
@@ -39,6 +40,8 @@ class Simulator {
   std::vector<StepStats> advance_frame();
   /// One step of every cloth.
   std::vector<StepStats> step();
+  /// Keep the solver's per-iteration trace (energy, gradient norm, wall time) in every StepStats.
+  void set_record_trace(bool on) { m_record_trace = on; }
 
   /// State for checkpoints: frame, step, and every cloth's x and v.
   void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
@@ -50,6 +53,7 @@ class Simulator {
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
   int m_frame = 0;
   long m_step = 0;
+  bool m_record_trace = false;
 };
 
 }  // namespace mgcloth::sim
