@@ -91,3 +91,13 @@ TEST(Scene, ShippedScenesParse) {
     EXPECT_NO_THROW(sim::load_scene(std::string(MGCLOTH_SOURCE_DIR) + "/scenes/" + name + ".json")) << name;
   }
 }
+
+TEST(Scene, KeyframeTimesMustIncrease) {
+  Json j = minimal();
+  j["obstacles"] = Json::parse(R"([{ "shape": { "type": "sphere", "radius": 0.1 },
+    "motion": { "type": "keyframes", "keys": [ { "time": 1.0 }, { "time": 0.5 } ] } }])");
+  EXPECT_NE(error_of(j).find("obstacles[0].motion.keys[1].time: key times must increase"), std::string::npos) << error_of(j);
+  j = minimal();
+  j["cloths"][0]["pins"] = Json::parse(R"([{ "vertices": [0], "motion": { "type": "keyframes", "keys": [] } }])");
+  EXPECT_NE(error_of(j).find("needs at least one key"), std::string::npos) << error_of(j);
+}

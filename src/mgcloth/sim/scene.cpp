@@ -65,6 +65,22 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
   return s;
 }
 
+/// The "keys" of a keyframe motion: their times (at least one, strictly increasing), and each key's own fields
+/// read by `read_key`.
+template <class ReadKey>
+std::vector<double> parse_keys(JsonReader& motion, ReadKey&& read_key) {
+  std::vector<double> times;
+  for (auto& k : motion.objects("keys")) {
+    times.push_back(k.required_number("time", 0.0));
+    read_key(k);
+    k.finish();
+  }
+  if (times.empty()) motion.fail("keys", "keyframe motion needs at least one key");
+  for (size_t i = 1; i < times.size(); ++i)
+    if (!(times[i] > times[i - 1])) motion.fail(fmt::format("keys[{}].time", i), "key times must increase");
+  return times;
+}
+
 PinSpec parse_pin(JsonReader r) {
   PinSpec p;
   if (r.has("vertices")) {
@@ -92,14 +108,7 @@ PinSpec parse_pin(JsonReader r) {
     p.motion = m->choice("type", "none", {"none", "constant_velocity", "keyframes"});
     if (p.motion == "constant_velocity") p.velocity = m->vec3("velocity", Vec3::Zero());
     if (p.motion == "keyframes") {
-      for (auto& k : m->objects("keys")) {
-        p.key_times.push_back(k.required_number("time", 0.0));
-        p.key_offsets.push_back(k.vec3("offset", Vec3::Zero()));
-        k.finish();
-      }
-      if (p.key_times.empty()) m->fail("keys", "keyframe motion needs at least one key");
-      for (size_t i = 1; i < p.key_times.size(); ++i)
-        if (!(p.key_times[i] > p.key_times[i - 1])) m->fail(fmt::format("keys[{}].time", i), "key times must increase");
+      p.key_times = parse_keys(*m, [&](JsonReader& k) { p.key_offsets.push_back(k.vec3("offset", Vec3::Zero())); });
     }
     m->finish();
   }
@@ -149,15 +158,10 @@ ObstacleSpec parse_obstacle(JsonReader r, size_t index) {
       o.angular_velocity = m->vec3("angular_velocity", Vec3::Zero());
     }
     if (o.motion == "keyframes") {
-      for (auto& k : m->objects("keys")) {
-        o.key_times.push_back(k.required_number("time", 0.0));
+      o.key_times = parse_keys(*m, [&](JsonReader& k) {
         o.key_positions.push_back(k.vec3("position", o.position));
         o.key_rotations_deg.push_back(k.vec3("rotation_deg", o.rotation_deg));
-        k.finish();
-      }
-      if (o.key_times.empty()) m->fail("keys", "keyframe motion needs at least one key");
-      for (size_t i = 1; i < o.key_times.size(); ++i)
-        if (!(o.key_times[i] > o.key_times[i - 1])) m->fail(fmt::format("keys[{}].time", i), "key times must increase");
+      });
     }
     m->finish();
   }
