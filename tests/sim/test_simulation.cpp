@@ -144,3 +144,20 @@ TEST(Simulation, KeyframedPinsCarryTheCloth) {
     EXPECT_LT((body.x().segment<3>(3 * body.pinned_vertices()[p]) - end[p]).norm(), 2e-3);
   }
 }
+
+TEST(Simulation, TableclothRestsOnTheTableAndHangsOverItsEdges) {
+  sim::Simulator s(shipped("tablecloth", 600, 20));
+  const double thickness = s.scene().contact.thickness;
+  const auto& table = s.obstacles()[0];
+  for (int f = 0; f < 20; ++f) {
+    s.advance_frame();
+    const auto& x = s.cloths()[0]->x();
+    for (Index i = 0; i < x.size() / 3; ++i) {
+      ASSERT_GE(table.sdf(x.segment<3>(3 * i), s.time()).phi, -thickness) << "frame " << f + 1 << " vertex " << i;
+      ASSERT_GE(x[3 * i + 2], -thickness) << "below the floor";
+    }
+  }
+  const auto cols = as_columns(s.cloths()[0]->x());
+  EXPECT_NEAR(cols.row(2).maxCoeff(), 0.8, 0.02);  // on the table top
+  EXPECT_LT(cols.row(2).minCoeff(), 0.7);          // draped over the edges
+}
