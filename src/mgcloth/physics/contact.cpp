@@ -26,9 +26,9 @@ double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian
     const geometry::SdfSample s = m_obstacles[o].sdf(xe, m_poses[o]);
     const double gap = d - s.phi;
     if (gap <= 0.0) continue;
-    energy += 0.5 * k * gap * gap;
-    if (g) *g -= k * gap * s.grad;
-    if (H) *H += k * (s.grad * s.grad.transpose() - gap * s.hess);
+    energy += k * gap * gap * gap / (3.0 * d);
+    if (g) *g -= (k / d) * gap * gap * s.grad;
+    if (H) *H += (k / d) * (2.0 * gap * s.grad * s.grad.transpose() - gap * gap * s.hess);
   }
   return energy;
 }
@@ -76,7 +76,7 @@ void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstacleCont
       Vec3 v_rel = v.segment<3>(3 * i) - v_obs;
       double vn = v_rel.dot(nrm);
       // The normal velocity change the contact produced this step: penalty impulse plus projection push.
-      const double dvn = h * contact.vertex_stiffness(i) * gap / mass[i] + pushed[i] / h;
+      const double dvn = h * contact.vertex_stiffness(i) * gap * gap / d / mass[i] + pushed[i] / h;
       if (vn < 0.0) vn = 0.0;  // no velocity into the obstacle survives the step
       Vec3 vt = v_rel - v_rel.dot(nrm) * nrm;
       const double vt_norm = vt.norm();
