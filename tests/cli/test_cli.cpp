@@ -90,6 +90,25 @@ TEST_F(Cli, TraceRecordsEveryIteration) {
   EXPECT_EQ(std::count(trace.begin(), trace.end(), '\n'), expected + 1);
 }
 
+TEST_F(Cli, OutputFramesAreValidInputMeshes) {
+  ASSERT_EQ(run("run " + small_scene() + " -q --frames 1 --out " + (dir / "a").string()).code, 0);
+  // A scene whose cloth is read from the first run's frame (relative path: resolved against the scene's folder).
+  const auto scene = write("from_obj.json", R"({ "frames": 2, "cloths": [ { "mesh": { "file": "a/frame_00001.obj" },
+    "pins": [ { "region": { "min": [0, 0.9], "max": [1, 1] } } ] } ] })");
+  const auto r = run("run " + scene + " -q --out " + (dir / "b").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto a = mgcloth::read_file(dir / "a" / "frame_00001.obj");
+  const auto b = mgcloth::read_file(dir / "b" / "frame_00000.obj");
+  // Same vertex, uv and face counts: the material coordinates survived the round trip.
+  for (const char* tag : {"\nv ", "\nvt ", "\nf "}) {
+    size_t ca = 0, cb = 0;
+    for (size_t p = a.find(tag); p != std::string::npos; p = a.find(tag, p + 1)) ++ca;
+    for (size_t p = b.find(tag); p != std::string::npos; p = b.find(tag, p + 1)) ++cb;
+    EXPECT_EQ(ca, cb) << tag;
+    EXPECT_GT(ca, 0u);
+  }
+}
+
 TEST_F(Cli, QuietPrintsNothing) {
   const auto r = run("run " + small_scene() + " --frames 1 --quiet --out " + (dir / "out").string());
   EXPECT_EQ(r.code, 0);
