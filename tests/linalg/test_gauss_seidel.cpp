@@ -1,3 +1,4 @@
+#include <mgcloth/linalg/chebyshev.hpp>
 #include <mgcloth/linalg/coloring.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
 
@@ -105,4 +106,36 @@ TEST(GaussSeidel, MaskedRowsAreLeftAlone) {
   gs.symmetric_sweeps(b, x, 2, &mask);
   EXPECT_TRUE((x.segment<3>(21).array() == 0.25).all());
   EXPECT_FALSE((x.segment<3>(24).array() == 0.25).all());
+}
+
+
+TEST(Chebyshev, AcceleratesSymmetricGaussSeidel) {
+  const BlockMatrix3 A = grid_spd(24, 5);
+  MultiColorGaussSeidel gs(A);
+  gs.set_matrix(A);
+  const double rho = estimate_gauss_seidel_rho(A, gs);
+  EXPECT_GT(rho, 0.5);
+  EXPECT_LT(rho, 1.0);
+  const VecX b = VecX::Random(3 * A.rows());
+  VecX plain = VecX::Zero(b.size()), fast = VecX::Zero(b.size());
+  gs.symmetric_sweeps(b, plain, 40);
+  chebyshev_gauss_seidel(gs, b, fast, 40, rho);
+  const double r_plain = (b - A * plain).norm(), r_fast = (b - A * fast).norm();
+  EXPECT_LT(r_fast, 0.5 * r_plain) << "plain " << r_plain << " chebyshev " << r_fast;
+}
+
+TEST(Chebyshev, SmoothingOperatorIsSymmetricPositiveDefinite) {
+  const BlockMatrix3 A = grid_spd(5, 6);
+  MultiColorGaussSeidel gs(A);
+  gs.set_matrix(A);
+  const double rho = estimate_gauss_seidel_rho(A, gs);
+  const Index n = 3 * A.rows();
+  Eigen::MatrixXd M(n, n);
+  for (Index j = 0; j < n; ++j) {
+    VecX x = VecX::Zero(n);
+    chebyshev_gauss_seidel(gs, VecX::Unit(n, j), x, 6, rho);
+    M.col(j) = x;
+  }
+  EXPECT_LE((M - M.transpose()).norm(), 1e-10 * M.norm());
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (M + M.transpose())).eigenvalues().minCoeff(), 0.0);
 }
