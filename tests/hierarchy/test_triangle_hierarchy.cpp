@@ -141,7 +141,6 @@ TEST(TriangleHierarchy, RegularRectangle) {
   std::printf("regular %d:", m.num_vertices());
   for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
   std::printf(" (%.3f s)\n", t.seconds);
-  EXPECT_LT(t.seconds, 1.0);
   for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
     const LinearError e = linear_error(t.h, l);
     EXPECT_LT(e.outer, 1e-12);
@@ -158,7 +157,6 @@ TEST(TriangleHierarchy, UnstructuredRectangle) {
   std::printf("unstructured %d:", m.num_vertices());
   for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
   std::printf(" (%.3f s)\n", t.seconds);
-  EXPECT_LT(t.seconds, 1.0);
   for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
     const LinearError e = linear_error(t.h, l);
     EXPECT_LT(e.outer, 1e-12);
@@ -175,7 +173,6 @@ TEST(TriangleHierarchy, RectangleWithHole) {
   std::printf("holed %d:", m.num_vertices());
   for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
   std::printf(" (%.3f s)\n", t.seconds);
-  EXPECT_LT(t.seconds, 1.0);
   for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
     const LinearError e = linear_error(t.h, l);
     // The straight outer boundary is reproduced exactly (corners are kept, boundary vertices interpolate along
