@@ -132,20 +132,30 @@ double longest_hole_edge(const mesh::TriMesh& m) {
   return c;
 }
 
+/// Level sizes and build time, for people reading the test log (not asserted: timings belong in benchmarks).
+void print_levels(const char* name, const mesh::TriMesh& m, const Timed& t) {
+  std::printf("%s %d:", name, m.num_vertices());
+  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
+  std::printf(" (%.3f s)\n", t.seconds);
+}
+
+/// Affine functions of u are reproduced exactly by every prolongation (outer boundary and interior).
+void expect_exact_on_outer_and_interior(const TriangleHierarchy& h) {
+  for (Index l = 0; l + 1 < h.num_levels(); ++l) {
+    const LinearError e = linear_error(h, l);
+    EXPECT_LT(e.outer, 1e-12) << "level " << l;
+    EXPECT_LT(e.interior, 1e-12) << "level " << l;
+  }
+}
+
 TEST(TriangleHierarchy, RegularRectangle) {
   const mesh::TriMesh m = rectangle(10000, false, false);
   HierarchyParams p;
   p.keep = {0, 5, 777, m.num_vertices() - 1};
   const Timed t = build(m, p);
   expect_structure(m, t.h, p);
-  std::printf("regular %d:", m.num_vertices());
-  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
-  std::printf(" (%.3f s)\n", t.seconds);
-  for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
-    const LinearError e = linear_error(t.h, l);
-    EXPECT_LT(e.outer, 1e-12);
-    EXPECT_LT(e.interior, 1e-12);
-  }
+  print_levels("regular", m, t);
+  expect_exact_on_outer_and_interior(t.h);
 }
 
 TEST(TriangleHierarchy, UnstructuredRectangle) {
@@ -154,14 +164,8 @@ TEST(TriangleHierarchy, UnstructuredRectangle) {
   p.keep = {3, 4000};
   const Timed t = build(m, p);
   expect_structure(m, t.h, p);
-  std::printf("unstructured %d:", m.num_vertices());
-  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
-  std::printf(" (%.3f s)\n", t.seconds);
-  for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
-    const LinearError e = linear_error(t.h, l);
-    EXPECT_LT(e.outer, 1e-12);
-    EXPECT_LT(e.interior, 1e-12);
-  }
+  print_levels("unstructured", m, t);
+  expect_exact_on_outer_and_interior(t.h);
 }
 
 TEST(TriangleHierarchy, RectangleWithHole) {
@@ -170,9 +174,7 @@ TEST(TriangleHierarchy, RectangleWithHole) {
   p.keep = {10, 2000};
   const Timed t = build(m, p);
   expect_structure(m, t.h, p);
-  std::printf("holed %d:", m.num_vertices());
-  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
-  std::printf(" (%.3f s)\n", t.seconds);
+  print_levels("holed", m, t);
   for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
     const LinearError e = linear_error(t.h, l);
     // The straight outer boundary is reproduced exactly (corners are kept, boundary vertices interpolate along
@@ -232,9 +234,7 @@ TEST(TriangleHierarchy, LShapeUnstructured) {
   // and many of its vertices are kept as corners; the hierarchy must still be valid and nested.
   const mesh::TriMesh m = l_shape(true);
   const Timed t = build(m);
-  std::printf("unstructured L %d:", m.num_vertices());
-  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
-  std::printf(" (%.3f s)\n", t.seconds);
+  print_levels("unstructured L", m, t);
   expect_structure(m, t.h, {});
 }
 
@@ -246,9 +246,7 @@ TEST(TriangleHierarchy, ManySmallHoles) {
     for (int j = 0; j < 3; ++j) spec.holes.push_back({{0.2 + 0.3 * i, 0.2 + 0.3 * j}, 0.06});
   const mesh::TriMesh m = mesh::make_rectangle(spec);
   const Timed t = build(m);
-  std::printf("9 holes %d:", m.num_vertices());
-  for (const Level& l : t.h.levels()) std::printf(" %d", l.mesh.num_vertices());
-  std::printf(" (%.3f s)\n", t.seconds);
+  print_levels("9 holes", m, t);
   expect_structure(m, t.h, {});
 }
 
