@@ -250,6 +250,74 @@ TEST(TriangleHierarchy, ManySmallHoles) {
   expect_structure(m, t.h, {});
 }
 
+/// Every level of a stitched garment stays stitched: a stitched point is on a level with all its panels' copies,
+/// and prolongation gives the copies of a seam vertex the same value whenever the coarse copies agree.
+void expect_stitched(const TriangleHierarchy& h) {
+  const auto& finest = h.level(0).mesh;
+  std::vector<Index> copies(finest.num_vertices(), 0);
+  for (Index s : finest.source_vertex) ++copies[s];
+  for (Index l = 0; l < h.num_levels(); ++l) {
+    const mesh::TriMesh& m = h.level(l).mesh;
+    ASSERT_EQ(static_cast<Index>(m.source_vertex.size()), m.num_vertices());
+    std::vector<Index> count(finest.num_vertices(), 0);
+    for (Index s : m.source_vertex) ++count[s];
+    Index stitched = 0;
+    for (Index s : m.source_vertex) {
+      EXPECT_EQ(count[s], copies[s]) << "level " << l << ": stitched point " << s << " lost a panel's copy";
+      stitched += copies[s] > 1;
+    }
+    EXPECT_GT(stitched, 0) << "level " << l;
+    if (l == 0) continue;
+    const TransferTable& P = h.prolongation(l - 1);
+    VecX fine;
+    P.apply(as_stacked(m.x), fine);  // the copies of a stitched point share x on every level
+    const mesh::TriMesh& f = h.level(l - 1).mesh;
+    for (const auto& g : mesh::build_topology(f).stitch_groups)
+      for (Index v : g) EXPECT_LT((vertex(fine, v) - vertex(fine, g[0])).norm(), 1e-12) << "level " << l - 1 << " vertex " << v;
+  }
+}
+
+TEST(TriangleHierarchy, TwoPanelStitchedTube) {
+  for (bool unstructured : {false, true}) {
+    mesh::TubeSpec spec;
+    spec.circumference = 2.0;
+    spec.height = 0.8;
+    spec.target_vertices = 12000;
+    spec.unstructured = unstructured;
+    const mesh::TriMesh m = mesh::make_tube(spec);
+    const mesh::Topology topo = mesh::build_topology(m);
+    ASSERT_EQ(topo.num_components, 2);
+    ASSERT_GT(topo.stitch_groups.size(), 20u);
+    const Timed t = build(m);
+    print_levels(unstructured ? "unstructured tube" : "regular tube", m, t);
+    expect_structure(m, t.h, {});
+    expect_stitched(t.h);
+    // Panels overlap in material space, yet each vertex interpolates from its own panel only.
+    for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
+      const TransferTable& P = t.h.prolongation(l);
+      const auto& fine = mesh::build_topology(t.h.level(l).mesh);
+      const auto& coarse = t.h.level(l + 1);
+      for (Index i = 0; i < P.num_fine; ++i)
+        for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k)
+          EXPECT_EQ(fine.component[coarse.fine_index[P.indices[k]]], fine.component[i]);
+    }
+  }
+}
+
+TEST(TriangleHierarchy, KeptVertexKeepsItsStitchPartners) {
+  mesh::TubeSpec spec;
+  spec.target_vertices = 6000;
+  const mesh::TriMesh m = mesh::make_tube(spec);
+  const auto topo = mesh::build_topology(m);
+  HierarchyParams p;
+  p.keep = {topo.stitch_groups[topo.stitch_groups.size() / 2][0]};
+  const Index partner = topo.stitch_groups[topo.stitch_groups.size() / 2][1];
+  const TriangleHierarchy h = build_triangle_hierarchy(m, p);
+  const auto& coarsest = h.level(h.num_levels() - 1).to_finest;
+  EXPECT_NE(std::find(coarsest.begin(), coarsest.end(), p.keep[0]), coarsest.end());
+  EXPECT_NE(std::find(coarsest.begin(), coarsest.end(), partner), coarsest.end());
+}
+
 TEST(TriangleHierarchy, Deterministic) {
   const mesh::TriMesh m = rectangle(5000, true, true);
   HierarchyParams p;

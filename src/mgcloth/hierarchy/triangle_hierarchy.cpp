@@ -11,7 +11,9 @@
 #include <cmath>
 #include <deque>
 #include <numbers>
+#include <memory>
 #include <random>
+#include <unordered_map>
 
 namespace mgcloth::hierarchy {
 
@@ -52,20 +54,54 @@ double turning_angle(const Vec2& p, const Vec2& v, const Vec2& n) {
   return std::atan2(std::abs(a.x() * b.y() - a.y() * b.x()), a.dot(b));
 }
 
-/// Marks the boundary vertices a coarse level keeps: corners, keep vertices, and vertices evenly spaced by arc
-/// length (about r apart) between them.
+/// Stitch partners of every vertex (the other members of its stitch group), in CSR form.
+struct Partners {
+  std::vector<Index> offsets, list;
+  Partners(Index n, const std::vector<std::vector<Index>>& groups) : offsets(n + 1, 0) {
+    for (const auto& g : groups)
+      for (Index v : g) offsets[v + 1] += static_cast<Index>(g.size()) - 1;
+    for (Index i = 0; i < n; ++i) offsets[i + 1] += offsets[i];
+    list.resize(offsets[n]);
+    std::vector<Index> fill(offsets.begin(), offsets.end() - 1);
+    for (const auto& g : groups)
+      for (Index v : g)
+        for (Index w : g)
+          if (w != v) list[fill[v]++] = w;
+  }
+  bool stitched(Index v) const { return offsets[v + 1] > offsets[v]; }
+  template <class F> void for_each(Index v, F&& f) const {
+    for (Index k = offsets[v]; k < offsets[v + 1]; ++k) f(list[k]);
+  }
+};
+
+/// Marks the boundary vertices a coarse level keeps on one loop: forced ones (corners, keep vertices, seam ends,
+/// vertices already chosen through a stitch partner) and vertices evenly spaced by arc length (about r apart)
+/// between them. A seam stretch whose partner stretch was sampled already (done) is not sampled again: its
+/// vertices come from the partner, so both panels of a seam keep the same stitched vertices (App. B step 2).
 void select_boundary(const mesh::TriMesh& m, const std::vector<Index>& loop, double r, double corner_angle,
-                     const std::vector<char>& forced_in, std::vector<char>& selected) {
+                     const std::vector<char>& forced_in, const Partners& partners, const std::vector<char>& is_adjacent_seam,
+                     std::vector<char>& selected, std::vector<char>& done) {
   const Index n = static_cast<Index>(loop.size());
+  auto choose = [&](Index v) {
+    selected[v] = 1;
+    partners.for_each(v, [&](Index w) { selected[w] = 1; });
+  };
+  auto finish = [&](Index v) {
+    done[v] = 1;
+    partners.for_each(v, [&](Index w) { done[w] = 1; });
+  };
   if (n <= 4) {
-    for (Index v : loop) selected[v] = 1;
+    for (Index v : loop) choose(v), finish(v);
     return;
   }
   std::vector<Index> forced;  // positions in the loop
   for (Index k = 0; k < n; ++k) {
-    const Index v = loop[k];
-    const double turn = turning_angle(m.u.col(loop[(k + n - 1) % n]), m.u.col(v), m.u.col(loop[(k + 1) % n]));
-    if (forced_in[v] || turn > corner_angle) forced.push_back(k);
+    const Index v = loop[k], prev = loop[(k + n - 1) % n], next = loop[(k + 1) % n];
+    const double turn = turning_angle(m.u.col(prev), m.u.col(v), m.u.col(next));
+    // Seam ends: where stitching starts, stops or changes partner panel (is_adjacent_seam[k] says whether the
+    // loop edge k -> k+1 is stitched to one partner edge).
+    const bool seam_end = partners.stitched(v) && (!is_adjacent_seam[k] || !is_adjacent_seam[(k + n - 1) % n]);
+    if (forced_in[v] || selected[v] || turn > corner_angle || seam_end) forced.push_back(k);
   }
   if (forced.empty()) {
     Index k0 = 0;
@@ -77,20 +113,29 @@ void select_boundary(const mesh::TriMesh& m, const std::vector<Index>& loop, dou
   for (Index f = 0; f < nf; ++f) {
     const Index start = forced[f];
     const Index end = f + 1 < nf ? forced[f + 1] : forced[0] + n;  // loop position, may wrap
-    selected[loop[start]] = 1;
-    std::vector<double> arc{0.0};
-    for (Index k = start + 1; k <= end; ++k)
-      arc.push_back(arc.back() + (m.u.col(loop[k % n]) - m.u.col(loop[(k - 1) % n])).norm());
-    const double length = arc.back();
-    Index pieces = std::max<Index>(1, static_cast<Index>(std::lround(length / r)));
-    if (nf == 1) pieces = std::max<Index>(pieces, 4);
-    else if (nf == 2) pieces = std::max<Index>(pieces, 2);
-    Index k = 0;
-    for (Index p = 1; p < pieces; ++p) {
-      const double s = length * p / pieces;
-      while (k + 1 < static_cast<Index>(arc.size()) && std::abs(arc[k + 1] - s) <= std::abs(arc[k] - s)) ++k;
-      selected[loop[(start + k) % n]] = 1;
+    choose(loop[start]);
+    bool partner_done = end > start + 1;
+    for (Index k = start + 1; k < end && partner_done; ++k) {
+      bool any = false;
+      partners.for_each(loop[k % n], [&](Index w) { any = any || done[w]; });
+      partner_done = any;
     }
+    if (!partner_done) {
+      std::vector<double> arc{0.0};
+      for (Index k = start + 1; k <= end; ++k)
+        arc.push_back(arc.back() + (m.u.col(loop[k % n]) - m.u.col(loop[(k - 1) % n])).norm());
+      const double length = arc.back();
+      Index pieces = std::max<Index>(1, static_cast<Index>(std::lround(length / r)));
+      if (nf == 1) pieces = std::max<Index>(pieces, 4);
+      else if (nf == 2) pieces = std::max<Index>(pieces, 2);
+      Index k = 0;
+      for (Index p = 1; p < pieces; ++p) {
+        const double s = length * p / pieces;
+        while (k + 1 < static_cast<Index>(arc.size()) && std::abs(arc[k + 1] - s) <= std::abs(arc[k] - s)) ++k;
+        choose(loop[(start + k) % n]);
+      }
+    }
+    for (Index k = start; k < end; ++k) finish(loop[k % n]);
   }
 }
 
@@ -172,36 +217,53 @@ void mark_domains(Cdt& cdt) {
   }
 }
 
-/// Triangulates the selected vertices of `fine` with the coarse loops as constraints. Returns the coarse level:
-/// only selected vertices some domain triangle uses (a selected vertex outside the coarse domain is dropped).
-Level triangulate(const Level& fine, const std::vector<Index>& candidates,
-                  const std::vector<std::vector<Index>>& coarse_loops) {
-  const mesh::TriMesh& m = fine.mesh;
+/// Constrained Delaunay triangulation of one panel's selected vertices with its coarse loops as constraints;
+/// appends the domain triangles (as fine-level vertex indices) to `tris`.
+void triangulate_panel(const mesh::TriMesh& m, const std::vector<Index>& candidates,
+                       const std::vector<const std::vector<Index>*>& loops, Index panel, std::vector<Tri>& tris) {
   const Index nc = static_cast<Index>(candidates.size());
   std::vector<std::pair<Kernel::Point_2, Index>> points(nc);
   for (Index k = 0; k < nc; ++k) points[k] = {{m.u(0, candidates[k]), m.u(1, candidates[k])}, k};
   Cdt cdt;
   cdt.insert(points.begin(), points.end());
-  if (static_cast<Index>(cdt.number_of_vertices()) != nc) throw_error("hierarchy: coincident material points");
-  std::vector<Index> local(m.num_vertices(), -1);
-  for (Index k = 0; k < nc; ++k) local[candidates[k]] = k;
+  if (static_cast<Index>(cdt.number_of_vertices()) != nc)
+    throw_error("hierarchy: coincident material points in panel {}", panel);
   std::vector<Cdt::Vertex_handle> handle(nc);
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) handle[v->info()] = v;
-  for (const auto& loop : coarse_loops)
-    for (std::size_t k = 0; k < loop.size(); ++k)
-      cdt.insert_constraint(handle[local[loop[k]]], handle[local[loop[(k + 1) % loop.size()]]]);
+  std::unordered_map<Index, Index> local;
+  for (Index k = 0; k < nc; ++k) local[candidates[k]] = k;
+  for (const auto* loop : loops)
+    for (std::size_t k = 0; k < loop->size(); ++k)
+      cdt.insert_constraint(handle[local.at((*loop)[k])], handle[local.at((*loop)[(k + 1) % loop->size()])]);
   if (static_cast<Index>(cdt.number_of_vertices()) != nc)
-    throw_error("hierarchy: coarse boundary loops intersect (the coarsening is too aggressive for this shape)");
+    throw_error("hierarchy: coarse boundary loops of panel {} intersect (the coarsening is too aggressive for this shape)",
+                panel);
   mark_domains(cdt);
-
-  std::vector<Index> new_index(nc, -1);
-  std::vector<Index> used;
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f)
     if (f->info().in_domain())
-      for (int i = 0; i < 3; ++i) {
-        const Index k = f->vertex(i)->info();
-        if (new_index[k] == -1) new_index[k] = 0, used.push_back(k);
-      }
+      tris.push_back({candidates[f->vertex(0)->info()], candidates[f->vertex(1)->info()], candidates[f->vertex(2)->info()]});
+}
+
+/// Triangulates the selected vertices of `fine` panel by panel (panels may overlap in material space) with the
+/// coarse loops as constraints. Returns the coarse level: only selected vertices some domain triangle uses (a
+/// selected vertex outside the coarse domain is dropped).
+Level triangulate(const Level& fine, const mesh::Topology& topo, const std::vector<Index>& candidates,
+                  const std::vector<std::vector<Index>>& coarse_loops) {
+  const mesh::TriMesh& m = fine.mesh;
+  std::vector<std::vector<Index>> panel_vertices(topo.num_components);
+  std::vector<std::vector<const std::vector<Index>*>> panel_loops(topo.num_components);
+  for (Index v : candidates) panel_vertices[topo.component[v]].push_back(v);
+  for (const auto& loop : coarse_loops)
+    if (!loop.empty()) panel_loops[topo.component[loop[0]]].push_back(&loop);
+  std::vector<Tri> fine_tris;
+  for (Index c = 0; c < topo.num_components; ++c)
+    if (panel_vertices[c].size() >= 3) triangulate_panel(m, panel_vertices[c], panel_loops[c], c, fine_tris);
+
+  std::vector<Index> new_index(m.num_vertices(), -1);
+  std::vector<Index> used;
+  for (const Tri& t : fine_tris)
+    for (Index v : t)
+      if (new_index[v] == -1) new_index[v] = 0, used.push_back(v);
   std::sort(used.begin(), used.end());  // keeps the fine level's vertex order
   Level coarse;
   const Index n = static_cast<Index>(used.size());
@@ -210,8 +272,8 @@ Level triangulate(const Level& fine, const std::vector<Index>& candidates,
   coarse.fine_index.resize(n);
   coarse.to_finest.resize(n);
   for (Index c = 0; c < n; ++c) {
-    const Index k = used[c], i = candidates[k];
-    new_index[k] = c;
+    const Index i = used[c];
+    new_index[i] = c;
     coarse.mesh.x.col(c) = m.x.col(i);
     coarse.mesh.u.col(c) = m.u.col(i);
     coarse.fine_index[c] = i;
@@ -219,10 +281,7 @@ Level triangulate(const Level& fine, const std::vector<Index>& candidates,
   }
   if (!m.source_vertex.empty())
     for (Index c = 0; c < n; ++c) coarse.mesh.source_vertex.push_back(m.source_vertex[coarse.fine_index[c]]);
-  for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f)
-    if (f->info().in_domain())
-      coarse.mesh.tris.push_back(
-          {new_index[f->vertex(0)->info()], new_index[f->vertex(1)->info()], new_index[f->vertex(2)->info()]});
+  for (const Tri& t : fine_tris) coarse.mesh.tris.push_back({new_index[t[0]], new_index[t[1]], new_index[t[2]]});
   std::sort(coarse.mesh.tris.begin(), coarse.mesh.tris.end());  // CGAL's face order is not part of its contract
   return coarse;
 }
@@ -243,14 +302,14 @@ double segment_distance2(const Vec2& p, const Vec2& a, const Vec2& b) {
   return (a + t * e - p).squaredNorm();
 }
 
-/// Locates fine points in the coarse triangles (uniform grid over the triangles' boxes).
+/// Locates fine points in a set of coarse triangles (one panel's; uniform grid over the triangles' boxes).
 class TriangleLocator {
  public:
-  TriangleLocator(const mesh::TriMesh& coarse)
+  TriangleLocator(const mesh::TriMesh& coarse, const std::vector<Index>& triangles)
       : m_mesh(coarse),
         m_grid(coarse.u.rowwise().minCoeff(), coarse.u.rowwise().maxCoeff(),
                std::max(mesh::mean_material_edge_length(coarse), 1e-300)) {
-    for (Index t = 0; t < coarse.num_triangles(); ++t) {
+    for (Index t : triangles) {
       const auto& tri = coarse.tris[t];
       Vec2 lo = coarse.u.col(tri[0]), hi = lo;
       for (int k = 1; k < 3; ++k) lo = lo.cwiseMin(coarse.u.col(tri[k])), hi = hi.cwiseMax(coarse.u.col(tri[k]));
@@ -339,10 +398,19 @@ TransferTable build_prolongation(const Level& fine, const Level& coarse, const m
       a = k;
     }
   }
-  const TriangleLocator locator(coarse.mesh);
+  // Interior vertices: located among the coarse triangles of their own panel only (panels may overlap in
+  // material space, and a seam must not leak into the neighbouring panel).
+  std::vector<std::vector<Index>> panel_tris(fine_topo.num_components);
+  for (Index t = 0; t < coarse.mesh.num_triangles(); ++t)
+    panel_tris[fine_topo.component[coarse.fine_index[coarse.mesh.tris[t][0]]]].push_back(t);
+  std::vector<std::unique_ptr<TriangleLocator>> locators(fine_topo.num_components);
   for (Index i = 0; i < nf; ++i) {
     if (!rows[i].empty()) continue;
-    const auto [t, w] = locator.locate(fine.mesh.u.col(i));
+    const Index panel = fine_topo.component[i];
+    if (panel_tris[panel].empty())
+      throw_error("hierarchy: panel {} (with vertex {}) has no coarse triangle; it is too small to coarsen", panel, i);
+    if (!locators[panel]) locators[panel] = std::make_unique<TriangleLocator>(coarse.mesh, panel_tris[panel]);
+    const auto [t, w] = locators[panel]->locate(fine.mesh.u.col(i));
     for (int k = 0; k < 3; ++k)
       if (w[k] != 0.0) rows[i].push_back({coarse.mesh.tris[t][k], w[k]});
   }
@@ -371,15 +439,35 @@ struct Selection {
   std::vector<std::vector<Index>> loops;       ///< selected vertices of each boundary loop, in loop order
 };
 
-Selection select(const Level& fine, const mesh::Topology& topo, const std::vector<char>& forced, double r,
-                 const HierarchyParams& params, std::uint64_t seed) {
+Selection select(const Level& fine, const mesh::Topology& topo, const Partners& partners, const std::vector<char>& forced,
+                 double r, const HierarchyParams& params, std::uint64_t seed) {
   const mesh::TriMesh& m = fine.mesh;
-  std::vector<char> selected(forced.begin(), forced.end());
+  const Index n = m.num_vertices();
+  std::vector<char> selected(forced.begin(), forced.end()), done(n, 0);
   const double corner = params.corner_angle_deg * std::numbers::pi / 180.0;
-  for (const auto& loop : topo.boundary_loops) select_boundary(m, loop, r, corner, forced, selected);
+  const auto adjacent = [&](Index a, Index b) {
+    const auto first = topo.adjacency.begin() + topo.adjacency_offsets[a];
+    const auto last = topo.adjacency.begin() + topo.adjacency_offsets[a + 1];
+    return std::binary_search(first, last, b);
+  };
+  for (const auto& loop : topo.boundary_loops) {
+    const Index len = static_cast<Index>(loop.size());
+    std::vector<char> seam_edge(len, 0);
+    for (Index k = 0; k < len; ++k) {
+      const Index v = loop[k], w = loop[(k + 1) % len];
+      partners.for_each(v, [&](Index p) { partners.for_each(w, [&](Index q) { seam_edge[k] |= adjacent(p, q); }); });
+    }
+    select_boundary(m, loop, r, corner, forced, partners, seam_edge, selected, done);
+  }
   select_interior(m, topo.is_boundary_vertex, r, seed, selected);
+  for (const auto& g : topo.stitch_groups) {  // an interior stitched vertex takes its partners along
+    bool any = false;
+    for (Index v : g) any = any || selected[v];
+    if (any)
+      for (Index v : g) selected[v] = 1;
+  }
   Selection s;
-  for (Index i = 0; i < m.num_vertices(); ++i)
+  for (Index i = 0; i < n; ++i)
     if (selected[i]) s.vertices.push_back(i);
   for (const auto& loop : topo.boundary_loops) {
     s.loops.emplace_back();
@@ -422,6 +510,13 @@ TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const Hi
       for (Index v : params.keep)
         if (local[v] >= 0) forced[local[v]] = 1;
     }
+    const Partners partners(n, topo.stitch_groups);
+    for (const auto& g : topo.stitch_groups) {  // a kept vertex keeps the whole stitched point
+      bool any = false;
+      for (Index v : g) any = any || forced[v];
+      if (any)
+        for (Index v : g) forced[v] = 1;
+    }
     const double target = std::max(static_cast<double>(n) / params.ratio,
                                    static_cast<double>(params.min_coarse_vertices));
     const std::uint64_t seed = params.seed + 0x9E3779B97F4A7C15ull * levels.size();
@@ -432,7 +527,7 @@ TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const Hi
     Selection best;
     double best_error = kInf, r_small = 0.0, r_large = kInf;
     for (int iter = 0; iter < 8; ++iter) {
-      Selection s = select(fine, topo, forced, r, params, seed);
+      Selection s = select(fine, topo, partners, forced, r, params, seed);
       const double count = static_cast<double>(s.vertices.size());
       const double error = std::abs(std::log(count / target));
       if (error < best_error) best_error = error, best = std::move(s);
@@ -442,7 +537,7 @@ TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const Hi
       if (r_small > 0.0 && r_large < kInf && !(r > r_small && r < r_large)) r = 0.5 * (r_small + r_large);
     }
     if (static_cast<double>(best.vertices.size()) > 0.9 * n) break;  // no longer coarsening
-    Level coarse = triangulate(fine, best.vertices, best.loops);
+    Level coarse = triangulate(fine, topo, best.vertices, best.loops);
     prolongations.push_back(build_prolongation(fine, coarse, topo));
     levels.push_back(std::move(coarse));
   }

@@ -54,8 +54,11 @@ class TriangleHierarchy {
 /// straight boundaries are reproduced exactly); barycentric in the containing coarse triangle for interior
 /// vertices, or, if none contains it (a concave boundary cut by a coarse chord), clamped and renormalized
 /// barycentric weights of the closest coarse triangle. Every row sums to 1 with non-negative weights.
+/// Garments: each panel (connected component) is triangulated and interpolated on its own, so panels may overlap
+/// in material space; stitched seams (vertices sharing a TriMesh::source_vertex) are coarsened together (App. B
+/// step 2): seam ends are kept like corners, a seam is sampled on one panel and its partner vertices are taken on
+/// the other, so every coarse level stays stitched at the same points. A kept vertex keeps its stitch partners.
 /// Throws InputError for bad parameters or keep indices out of range; `finest` must be a valid mesh.
-/// Stitched multi-patch garments (App. B step 2) are not handled yet.
 TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const HierarchyParams& params);
 
 }  // namespace mgcloth::hierarchy

@@ -349,4 +349,54 @@ TriMesh make_rectangle(const RectangleSpec& spec) {
   return mesh;
 }
 
+TriMesh make_tube(const TubeSpec& spec) {
+  if (!(spec.circumference > 0.0) || !(spec.height > 0.0) || !std::isfinite(spec.circumference) || !std::isfinite(spec.height))
+    throw_input_error("tube: circumference and height must be positive (got {} and {})", spec.circumference, spec.height);
+  if (spec.target_vertices < 8) throw_input_error("tube: needs at least 8 vertices (got {})", spec.target_vertices);
+  RectangleSpec panel;
+  panel.width = 0.5 * spec.circumference;
+  panel.height = spec.height;
+  panel.target_vertices = spec.target_vertices / 2;
+  panel.unstructured = spec.unstructured;
+  panel.seed = spec.seed;
+  const TriMesh front = make_rectangle(panel);
+  const Index n = front.num_vertices();
+  // Side vertices of a panel, ordered by v: the seams pair the front's right side with the back's left side.
+  auto side = [&](double u) {
+    std::vector<std::pair<double, Index>> s;
+    for (Index i = 0; i < n; ++i)
+      if (front.u(0, i) == u) s.push_back({front.u(1, i), i});
+    std::sort(s.begin(), s.end());
+    return s;
+  };
+  const auto left = side(0.0), right = side(panel.width);
+  if (left.size() != right.size())
+    throw_error("tube: the panel's sides have {} and {} vertices; they cannot be stitched", left.size(), right.size());
+  for (std::size_t k = 0; k < left.size(); ++k)
+    if (std::abs(left[k].first - right[k].first) > 1e-9 * spec.height)
+      throw_error("tube: the panel's side vertices {} and {} are not at the same height", left[k].second, right[k].second);
+
+  TriMesh m;
+  m.u.resize(2, 2 * n);
+  m.u << front.u, front.u;
+  m.x.resize(3, 2 * n);
+  const double radius = spec.circumference / (2.0 * std::numbers::pi);
+  for (Index p = 0; p < 2; ++p)
+    for (Index i = 0; i < n; ++i) {
+      // Front: angle 0..π along u; back: π..2π, so front u = 0 meets back u = width and front u = width meets back u = 0.
+      const double angle = std::numbers::pi * (p + front.u(0, i) / panel.width);
+      m.x.col(p * n + i) = Vec3(radius * std::cos(angle), radius * std::sin(angle), front.u(1, i));
+    }
+  // Outward-facing normals on both panels keep the tris CCW in material space.
+  for (Index p = 0; p < 2; ++p)
+    for (const Tri& t : front.tris) m.tris.push_back({t[0] + p * n, t[1] + p * n, t[2] + p * n});
+  m.source_vertex.resize(2 * n);
+  for (Index i = 0; i < 2 * n; ++i) m.source_vertex[i] = i;
+  for (std::size_t k = 0; k < left.size(); ++k) {
+    m.source_vertex[n + left[k].second] = right[k].second;   // back left = front right
+    m.source_vertex[left[k].second] = n + right[k].second;   // front left = back right
+  }
+  return m;
+}
+
 }  // namespace mgcloth::mesh

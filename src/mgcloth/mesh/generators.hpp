@@ -36,4 +36,21 @@ struct RectangleSpec {
 /// the rectangle or overlapping each other).
 TriMesh make_rectangle(const RectangleSpec& spec);
 
+/// A two-panel garment: a tube (a skirt or sleeve) sewn from a front and a back panel along both side seams.
+struct TubeSpec {
+  double circumference = 1.0;     ///< m; each panel is circumference/2 wide
+  double height = 0.5;            ///< m
+  Index target_vertices = 10000;  ///< both panels together, stitched vertices counted once per panel
+  bool unstructured = false;
+  std::uint64_t seed = 1;
+};
+
+/// Front and back panels, each a rectangle [0, circumference/2] x [0, height] in material space (the two charts
+/// overlap there, as separately laid-out sewing patterns may), placed on a vertical circular cylinder of that
+/// circumference around the world z axis, v along z, so the initial state is unstretched. The front panel's right
+/// side is stitched to the back panel's left side and vice versa: stitched vertices share a source_vertex
+/// (Topology::stitch_groups), as they would reading the garment from an OBJ with UV seams. Vertices 0..n/2-1 are
+/// the front panel. Throws InputError for a bad spec.
+TriMesh make_tube(const TubeSpec& spec);
+
 }  // namespace mgcloth::mesh

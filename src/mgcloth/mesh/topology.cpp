@@ -211,7 +211,41 @@ Topology build_topology(const TriMesh& mesh, const std::string& source) {
   topo.boundary_loops = find_boundary_loops(mesh.tris, groups);
   topo.edges = std::move(groups.edges);
   build_adjacency(topo.edges, num_vertices, topo);
+  topo.component.assign(num_vertices, -1);
+  std::vector<Index> stack;
+  for (Index seed = 0; seed < num_vertices; ++seed) {
+    if (topo.component[seed] >= 0) continue;
+    const Index c = topo.num_components++;
+    topo.component[seed] = c;
+    stack.assign(1, seed);
+    while (!stack.empty()) {
+      const Index v = stack.back();
+      stack.pop_back();
+      for (Index k = topo.adjacency_offsets[v]; k < topo.adjacency_offsets[v + 1]; ++k)
+        if (const Index w = topo.adjacency[k]; topo.component[w] < 0) topo.component[w] = c, stack.push_back(w);
+    }
+  }
+  topo.stitch_groups = find_stitch_groups(mesh);
   return topo;
+}
+
+std::vector<std::vector<Index>> find_stitch_groups(const TriMesh& mesh) {
+  std::vector<std::vector<Index>> groups;
+  if (mesh.source_vertex.empty()) return groups;
+  std::vector<std::pair<Index, Index>> by_source;
+  for (Index i = 0; i < mesh.num_vertices(); ++i) by_source.push_back({mesh.source_vertex[i], i});
+  std::sort(by_source.begin(), by_source.end());
+  for (std::size_t a = 0; a < by_source.size();) {
+    std::size_t b = a + 1;
+    while (b < by_source.size() && by_source[b].first == by_source[a].first) ++b;
+    if (b - a > 1) {
+      groups.emplace_back();
+      for (std::size_t k = a; k < b; ++k) groups.back().push_back(by_source[k].second);
+    }
+    a = b;
+  }
+  std::sort(groups.begin(), groups.end());
+  return groups;
 }
 
 }  // namespace mgcloth::mesh

@@ -21,6 +21,12 @@ struct Topology {
   std::vector<Index> adjacency_offsets;          ///< vertex adjacency in CSR form (neighbours sorted, self excluded)
   std::vector<Index> adjacency;
   std::vector<bool> is_boundary_vertex;
+  /// Panel (connected component of the edge graph) of each vertex, numbered in order of their smallest vertex.
+  std::vector<Index> component;
+  Index num_components = 0;
+  /// Seams: groups of two or more vertices that are one point of the garment (the same OBJ position split at UV
+  /// seams, TriMesh::source_vertex), stitched together in simulation. Members sorted; groups by first member.
+  std::vector<std::vector<Index>> stitch_groups;
 
   Index num_edges() const { return static_cast<Index>(edges.size()); }
 };
@@ -45,6 +51,9 @@ EdgeGroups group_triangle_sides(const std::vector<Tri>& tris, Index num_vertices
 /// by their smallest boundary side. Never throws: where orientation is inconsistent a walk may stop before it
 /// closes, and that open chain is returned as a loop.
 std::vector<std::vector<Index>> find_boundary_loops(const std::vector<Tri>& tris, const EdgeGroups& groups);
+
+/// Stitch groups of a mesh from its source_vertex (empty when it has none); see Topology::stitch_groups.
+std::vector<std::vector<Index>> find_stitch_groups(const TriMesh& mesh);
 
 /// Throws InputError (naming `source`, the edge and its triangles) for non-manifold edges.
 Topology build_topology(const TriMesh& mesh, const std::string& source = "mesh");
