@@ -6,9 +6,9 @@ cd "$(dirname "$0")/.."
 
 PACKAGES=(
   build-essential cmake pkg-config
-  libeigen3-dev libsuitesparse-dev libopenblas0-openmp libcgal-dev
+  libeigen3-dev libsuitesparse-dev libhypre-dev libopenblas0-openmp libcgal-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtinyobjloader-dev
-  libgtest-dev libbenchmark-dev
+  libgtest-dev libbenchmark-dev libpng-dev
 )
 
 missing=()

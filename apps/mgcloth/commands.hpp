@@ -5,6 +5,9 @@ namespace mgcloth::cli {
 
 void add_run_command(CLI::App& app);
 void add_info_command(CLI::App& app);
+void add_hierarchy_command(CLI::App& app);
+/// Runs `mgcloth hierarchy` once parsed; returns the exit code.
+int run_hierarchy_command();
 /// Runs the subcommand that was parsed; returns the exit code.
 int dispatch(CLI::App& app);
 

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "mgcloth 0.1.0");
   mgcloth::cli::add_run_command(app);
   mgcloth::cli::add_info_command(app);
+  mgcloth::cli::add_hierarchy_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -115,6 +115,7 @@ void add_info_command(CLI::App& app) {
 int dispatch(CLI::App& app) {
   if (app.got_subcommand("run")) return run();
   if (app.got_subcommand("info")) return info();
+  if (app.got_subcommand("hierarchy")) return run_hierarchy_command();
   return 1;
 }
 

@@ -1,5 +1,9 @@
 // Drives the built `mgcloth` executable the way a user does: exit codes, one-line errors, outputs on disk.
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/image.hpp>
+#include <mgcloth/core/json.hpp>
+#include <mgcloth/mesh/generators.hpp>
+#include <mgcloth/mesh/obj_io.hpp>
 
 #include <fmt/format.h>
 
@@ -158,4 +162,142 @@ TEST_F(Cli, InfoReportsMeshAndRejectsBrokenFiles) {
   EXPECT_EQ(broken.code, 1) << broken.out;
   EXPECT_NE(broken.out.find("broken.obj"), std::string::npos) << broken.out;
   EXPECT_EQ(run("info " + (dir / "missing.obj").string()).code, 1);
+}
+
+namespace {
+/// How many of `points`' columns have a column of `pool` within `tol` (brute force; small meshes only).
+long count_found(const mgcloth::Mat2X& points, const mgcloth::Mat2X& pool, double tol = 1e-12) {
+  long found = 0;
+  for (mgcloth::Index i = 0; i < points.cols(); ++i)
+    if ((pool.colwise() - points.col(i)).colwise().squaredNorm().minCoeff() <= tol * tol) ++found;
+  return found;
+}
+long count_lines(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+}  // namespace
+
+TEST_F(Cli, HierarchyOfASceneWritesNestedLevelsPictureAndReport) {
+  const auto scene = write("h.json", R"({ "cloths": [ { "name": "sheet",
+      "mesh": { "generator": "rectangle", "vertices": 2000, "unstructured": true },
+      "transform": { "translation": [0, 0, 1] }, "pins": [ { "points": [[0.5, 0.5]] } ] } ] })");
+  const auto r = run("hierarchy " + scene + " --out " + (dir / "h").string() + " --min-coarse 30 --max-coarse 150 --png-size 128");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("boundary loops"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("colors"), std::string::npos) << r.out;
+  const fs::path out = dir / "h" / "sheet";
+
+  const auto report = mgcloth::parse_json(mgcloth::read_file(out / "hierarchy.json"), "hierarchy.json");
+  const auto& levels = report.at("levels");
+  ASSERT_GE(levels.size(), 3u);
+  EXPECT_EQ(report.at("cloth"), "sheet");
+  EXPECT_GE(report.at("build_seconds").get<double>(), 0.0);
+  ASSERT_EQ(report.at("kept_vertices").size(), 1u);
+
+  const auto finest = mgcloth::mesh::read_obj(out / "level0.obj");
+  const mgcloth::Index pinned = report.at("kept_vertices")[0].get<mgcloth::Index>();
+  mgcloth::Index prev = 0;
+  for (size_t l = 0; l < levels.size(); ++l) {
+    const auto world = mgcloth::mesh::read_obj(out / fmt::format("level{}.obj", l));
+    const auto flat = mgcloth::mesh::read_obj(out / fmt::format("level{}_material.obj", l));
+    const mgcloth::Index n = world.num_vertices();
+    EXPECT_EQ(levels[l].at("vertices").get<mgcloth::Index>(), n) << l;
+    EXPECT_EQ(levels[l].at("triangles").get<mgcloth::Index>(), world.num_triangles()) << l;
+    EXPECT_EQ(levels[l].at("boundary_loops").get<int>(), 1) << l;
+    EXPECT_GE(levels[l].at("colors").get<int>(), 2) << l;
+    // World positions as the simulator places the cloth (translated to z = 1); material file: (u, v, 0).
+    EXPECT_LT((world.x.row(2).array() - 1.0).abs().maxCoeff(), 1e-12) << l;
+    EXPECT_EQ(flat.num_vertices(), n);
+    EXPECT_LT((flat.x.topRows<2>() - flat.u).cwiseAbs().maxCoeff(), 1e-12) << l;
+    EXPECT_LT(flat.x.row(2).cwiseAbs().maxCoeff(), 1e-15) << l;
+    EXPECT_LT((flat.u - world.u).cwiseAbs().maxCoeff(), 1e-12) << l;
+    // Nested: every vertex of a coarse level is a vertex of the finest, by material coordinates; the pinned vertex
+    // is on every level.
+    EXPECT_EQ(count_found(world.u, finest.u), n) << l;
+    EXPECT_EQ(count_found(finest.u.col(pinned), world.u), 1) << l;
+    if (l == 0) {
+      EXPECT_NEAR(n, 2000, 100);
+    } else {
+      const double ratio = static_cast<double>(prev) / n;
+      EXPECT_GE(ratio, 2.5) << l;
+      EXPECT_LE(ratio, 6.0) << l;
+    }
+    prev = n;
+  }
+  EXPECT_LE(prev, 150);
+  EXPECT_FALSE(fs::exists(out / fmt::format("level{}.obj", levels.size())));
+
+  // levels.png: a PNG with one 128-pixel panel per level, with dark edges and red pin dots on white.
+  const auto png = mgcloth::read_file(out / "levels.png");
+  ASSERT_GE(png.size(), 33u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(png.substr(12, 4), "IHDR");
+  const auto img = mgcloth::Image::read_png(out / "levels.png");
+  EXPECT_EQ(img.width(), 128 * static_cast<int>(levels.size()));
+  EXPECT_GT(img.height(), 128);
+  long dark = 0, red = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      const auto p = img.pixel(x, y);
+      dark += p.r < 128 && p.g < 128 && p.b < 128;
+      red += p.r > 180 && p.g < 100 && p.b < 100;
+    }
+  EXPECT_GT(dark, 1000);
+  EXPECT_GT(red, 10 * static_cast<long>(levels.size()));
+  for (const auto& e : fs::directory_iterator(out)) EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos);
+}
+
+TEST_F(Cli, HierarchyOfAnObjMeshAndOfOneSceneCloth) {
+  mgcloth::mesh::RectangleSpec spec;
+  spec.target_vertices = 600;
+  spec.width = 2.0;
+  const auto m = mgcloth::mesh::make_rectangle(spec);
+  mgcloth::mesh::write_obj(dir / "rect.obj", m, m.x);
+  const auto r = run("hierarchy " + (dir / "rect.obj").string() + " --material-scale 0.5 --min-coarse 20 --max-coarse 100 --out " +
+                     (dir / "o").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  // An OBJ's levels go straight into --out, with vt in the input's UV units.
+  const auto input = mgcloth::mesh::read_obj(dir / "rect.obj", 0.5);
+  const auto level0 = mgcloth::mesh::read_obj(dir / "o" / "level0.obj", 0.5);
+  EXPECT_EQ(level0.num_vertices(), input.num_vertices());
+  EXPECT_LT((level0.u - input.u).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_TRUE(fs::exists(dir / "o" / "level1.obj"));
+  EXPECT_TRUE(fs::exists(dir / "o" / "levels.png"));
+  EXPECT_TRUE(fs::exists(dir / "o" / "hierarchy.json"));
+
+  const auto scene = write("two.json", R"({ "cloths": [
+      { "name": "a", "mesh": { "vertices": 300 } }, { "name": "b", "mesh": { "vertices": 500 } } ] })");
+  const auto one = run("hierarchy " + scene + " --cloth b --max-coarse 150 --min-coarse 30 --out " + (dir / "s").string());
+  ASSERT_EQ(one.code, 0) << one.out;
+  EXPECT_TRUE(fs::exists(dir / "s" / "b" / "hierarchy.json"));
+  EXPECT_FALSE(fs::exists(dir / "s" / "a"));
+  const auto all = run("hierarchy " + scene + " --max-coarse 150 --min-coarse 30 --out " + (dir / "all").string());
+  ASSERT_EQ(all.code, 0) << all.out;
+  EXPECT_TRUE(fs::exists(dir / "all" / "a" / "levels.png"));
+  EXPECT_TRUE(fs::exists(dir / "all" / "b" / "levels.png"));
+}
+
+TEST_F(Cli, HierarchyRejectsBadInputWithOneLine) {
+  const auto scene = small_scene();
+  const std::string out = " --out " + (dir / "o").string();
+  const auto expect_error = [](const Result& r, const std::string& text) {
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find(text), std::string::npos) << r.out;
+    EXPECT_EQ(count_lines(r.out), 1) << r.out;
+  };
+  expect_error(run("hierarchy " + (dir / "absent.json").string() + out), "absent.json: no such file");
+  expect_error(run("hierarchy " + write("mesh.txt", "v 0 0 0\n") + out), "mesh.txt: unknown input type");
+  expect_error(run("hierarchy " + write("bad.json", "{ \"frames\": 3,, }") + out), "bad.json:1:");
+  expect_error(run("hierarchy " + write("broken.obj", "v 0 0 0\nf 1 2 3\n") + out), "broken.obj");
+  expect_error(run("hierarchy " + scene + out + " --ratio 1"), "--ratio");
+  expect_error(run("hierarchy " + scene + out + " --min-coarse 2"), "--min-coarse");
+  expect_error(run("hierarchy " + scene + out + " --min-coarse 200 --max-coarse 100"), "--max-coarse");
+  expect_error(run("hierarchy " + scene + out + " --png-size 8"), "--png-size");
+  expect_error(run("hierarchy " + scene + out + " --seed -1"), "--seed");
+  expect_error(run("hierarchy " + scene + out + " --cloth nope"), "no cloth named \"nope\"");
+  expect_error(run("hierarchy " + scene + out + " --material-scale 2"), "--material-scale");
+  const auto quad = write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n");
+  expect_error(run("hierarchy " + quad + out + " --cloth x"), "--cloth");
+  expect_error(run("hierarchy " + quad + out + " --material-scale 0"), "--material-scale");
+  expect_error(run("hierarchy " + scene + " --out " + quad), "not a folder");
+  EXPECT_NE(run("hierarchy " + scene).code, 0);  // --out is required
+  EXPECT_FALSE(fs::exists(dir / "o"));
 }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <random>
 
 using namespace mgcloth;
@@ -61,4 +63,45 @@ TEST(Galerkin, MatchesScalarTripleProduct) {
   for (auto& b : A.blocks()) b *= -2.0;
   rap.compute(A, Ac);
   EXPECT_LE((Eigen::MatrixXd(Ac.to_sparse()) + 2.0 * reference).norm(), 1e-12 * reference.norm());
+}
+
+TEST(Galerkin, CoarseOperatorOfAnSpdMatrixIsSymmetricPositiveDefinite) {
+  // A random SPD block matrix on a path graph and a full-rank interpolation (every coarse vertex is a fine one).
+  const Index nf = 30, nc = 11;
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i + 1 < nf; ++i) pairs.emplace_back(i, i + 1);
+  for (Index i = 0; i + 3 < nf; i += 2) pairs.emplace_back(i, i + 3);
+  linalg::BlockMatrix3 A(nf, pairs);
+  std::srand(3);  // Eigen's Random
+  for (Index r = 0; r < nf; ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
+      const Index c = A.col_indices()[k];
+      if (c < r) continue;
+      const Mat3 b = c == r ? Mat3(Mat3::Random() * 0.1) : Mat3(Mat3::Random());
+      A.block(k) = c == r ? Mat3(b + b.transpose()) : b;
+      if (c != r) A.block(A.find(c, r)) = b.transpose();
+    }
+  // Make it SPD by diagonal dominance.
+  for (Index r = 0; r < nf; ++r) {
+    double off = 0.0;
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k)
+      if (A.col_indices()[k] != r) off += A.block(k).cwiseAbs().sum();
+    A.block(A.diagonal(r)) += (off + 1.0) * Mat3::Identity();
+  }
+  std::vector<Index> offsets{0}, indices;
+  std::vector<double> weights;
+  for (Index i = 0; i < nf; ++i) {
+    const double t = static_cast<double>(i) * (nc - 1) / (nf - 1);
+    const Index j = std::min<Index>(static_cast<Index>(t), nc - 2);
+    indices.push_back(j), weights.push_back(1.0 - (t - j));
+    indices.push_back(j + 1), weights.push_back(t - j);
+    offsets.push_back(static_cast<Index>(indices.size()));
+  }
+  linalg::GalerkinProduct rap(A, nc, offsets, indices, weights);
+  linalg::BlockMatrix3 C;
+  rap.compute(A, C);
+  const Eigen::MatrixXd Cd = Eigen::MatrixXd(C.to_sparse());
+  EXPECT_LT((Cd - Cd.transpose()).norm(), 1e-12 * Cd.norm());
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Cd);
+  EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0);
 }

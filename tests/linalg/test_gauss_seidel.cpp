@@ -139,3 +139,46 @@ TEST(Chebyshev, SmoothingOperatorIsSymmetricPositiveDefinite) {
   EXPECT_LE((M - M.transpose()).norm(), 1e-10 * M.norm());
   EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (M + M.transpose())).eigenvalues().minCoeff(), 0.0);
 }
+
+TEST(GaussSeidel, MultiColorEqualsSequentialGaussSeidelInColorOrder) {
+  // Rows of one color are uncoupled, so relaxing them in parallel is exactly sequential block Gauss-Seidel over the
+  // rows listed color by color (forward), then in the reverse of that order (backward).
+  const BlockMatrix3 A = grid_spd(9, 5);
+  MultiColorGaussSeidel gs(A);
+  gs.set_matrix(A);
+  std::vector<Index> order;
+  for (const auto& c : gs.colors()) order.insert(order.end(), c.begin(), c.end());
+  ASSERT_EQ(static_cast<Index>(order.size()), A.rows());
+  const VecX b = VecX::Random(3 * A.rows());
+  VecX x = VecX::Random(b.size()), y = x;
+  auto relax = [&](Index r) {
+    Vec3 s = b.segment<3>(3 * r);
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k)
+      if (A.col_indices()[k] != r) s -= A.block(k) * y.segment<3>(3 * A.col_indices()[k]);
+    y.segment<3>(3 * r) = A.block(A.diagonal(r)).inverse() * s;
+  };
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    for (Index r : order) relax(r);
+    for (auto it = order.rbegin(); it != order.rend(); ++it) relax(*it);
+  }
+  gs.symmetric_sweeps(b, x, 2);
+  EXPECT_LT((x - y).norm(), 1e-12 * y.norm());
+}
+
+TEST(GaussSeidel, AdaptiveMaskSkipsRowsWithSmallResidual) {
+  const BlockMatrix3 A = grid_spd(8, 6);
+  const VecX b = VecX::Random(3 * A.rows());
+  VecX x = VecX::Zero(b.size());
+  std::vector<char> mask;
+  const VecX r = b - A * x;
+  const Index active = adaptive_mask(r, 0.5 * r.norm() / std::sqrt(static_cast<double>(A.rows())), mask);
+  Index count = 0;
+  for (Index i = 0; i < A.rows(); ++i) {
+    const bool large = r.segment<3>(3 * i).norm() >= 0.5 * r.norm() / std::sqrt(static_cast<double>(A.rows()));
+    EXPECT_EQ(mask[i] != 0, large) << "row " << i;
+    count += large;
+  }
+  EXPECT_EQ(active, count);
+  EXPECT_GT(count, 0);
+  EXPECT_LT(count, A.rows());
+}

@@ -1,4 +1,5 @@
 // Finite-difference, symmetry and PSD checks for every term of the incremental potential.
+#include <mgcloth/core/error.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/attachment.hpp>
@@ -7,6 +8,7 @@
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/membrane.hpp>
 #include <mgcloth/physics/objective.hpp>
+#include <mgcloth/physics/seam.hpp>
 
 #include <gtest/gtest.h>
 
@@ -214,6 +216,25 @@ TEST(Terms, InertiaGravityAttachment) {
   AttachmentTerm pins({0, 3, 3}, {1e3, 2e3, 5e2}, n);
   pins.set_targets({Vec3(0, 0, 1), Vec3(1, 0, 0), Vec3(0, 1, 0)});
   check_term(pins, x);
+}
+
+TEST(Terms, SeamSprings) {
+  auto f = small_cloth(true);
+  const Index n = f.mesh.num_vertices();
+  const VecX x = deformed_state(f.mesh, 5, 0.01);
+  SeamTerm seam({{0, 5, 9}, {2, 7}}, 3e3, n);
+  EXPECT_EQ(seam.num_elements(), 3);
+  check_term(seam, x);
+  // Closed seams cost nothing; an open one pulls its two sides together.
+  VecX y = x;
+  for (Index v : {5, 9}) y.segment<3>(3 * v) = y.segment<3>(0);
+  y.segment<3>(21) = y.segment<3>(6);
+  EXPECT_NEAR(seam.value(y), 0.0, 1e-20);
+  VecX g = VecX::Zero(3 * n);
+  seam.add_gradient(x, g);
+  EXPECT_NEAR(g.segment<3>(6).dot(x.segment<3>(6) - x.segment<3>(21)), 3e3 * (x.segment<3>(6) - x.segment<3>(21)).squaredNorm(), 1e-9);
+  EXPECT_THROW(SeamTerm({{1, 1}}, 1.0, n), mgcloth::InputError);
+  EXPECT_THROW(SeamTerm({{0, 1}}, -1.0, n), mgcloth::InputError);
 }
 
 TEST(Terms, ObstacleContact) {

@@ -52,4 +52,16 @@ void MultiColorGaussSeidel::symmetric_sweeps(const VecX& b, VecX& x, int sweeps,
   }
 }
 
+Index adaptive_mask(const VecX& residual, double threshold, std::vector<char>& mask) {
+  const Index n = static_cast<Index>(residual.size() / 3);
+  mask.resize(n);
+  const double t2 = threshold * threshold;
+  Index active = 0;
+  for (Index i = 0; i < n; ++i) {
+    mask[i] = residual.segment<3>(3 * i).squaredNorm() >= t2;
+    active += mask[i];
+  }
+  return active;
+}
+
 }  // namespace mgcloth::linalg

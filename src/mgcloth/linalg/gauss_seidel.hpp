@@ -30,4 +30,8 @@ class MultiColorGaussSeidel {
   std::vector<Mat3> m_inv_diag;
 };
 
+/// The adaptive-smoothing mask (Wang 2018 §4.3): mask[i] = 1 where the residual of block row i has norm >=
+/// threshold, else 0 (the row is skipped by the sweeps). Returns the number of active rows.
+Index adaptive_mask(const VecX& residual, double threshold, std::vector<char>& mask);
+
 }  // namespace mgcloth::linalg

@@ -1,6 +1,7 @@
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/membrane.hpp>
+#include <mgcloth/physics/seam.hpp>
 #include <mgcloth/sim/cloth_body.hpp>
 
 namespace mgcloth::sim {
@@ -16,6 +17,7 @@ namespace {
 
 mesh::TriMesh load_mesh(const ClothSpec& spec) {
   if (!spec.mesh.file.empty()) return mesh::read_obj(spec.mesh.file, spec.mesh.material_scale);
+  if (spec.mesh.generator == "tube") return mesh::make_tube(spec.mesh.tube);
   return mesh::make_rectangle(spec.mesh.rectangle);
 }
 
@@ -73,6 +75,9 @@ ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle
   else if (spec.material.bending == physics::BendingModel::Quadratic)
     m_objective.add(std::make_unique<physics::QuadraticBending>(m_mesh, m_topology, spec.material));
 
+  if (!m_topology.stitch_groups.empty())
+    m_objective.add(std::make_unique<physics::SeamTerm>(m_topology.stitch_groups, spec.seam_stiffness, n));
+
   std::vector<double> stiffness;
   for (size_t k = 0; k < m_pin_specs.size(); ++k) {
     const PinSpec& p = m_pin_specs[k];
@@ -91,6 +96,21 @@ ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle
   if (!obstacles.empty())
     m_contact = &m_objective.add(std::make_unique<physics::ObstacleContact>(m_area, obstacles, contact));
   m_objective.finalize();
+}
+
+const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::HierarchyParams& params) {
+  if (!m_hierarchy) {
+    hierarchy::HierarchyParams p = params;
+    p.keep.insert(p.keep.end(), m_pin_vertices.begin(), m_pin_vertices.end());  // pins are exact on every level
+    m_hierarchy = std::make_unique<hierarchy::TriangleHierarchy>(hierarchy::build_triangle_hierarchy(m_mesh, p));
+  }
+  return *m_hierarchy;
+}
+
+std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h) {
+  std::vector<const hierarchy::TransferTable*> p;
+  for (Index l = 0; l + 1 < h.num_levels(); ++l) p.push_back(&h.prolongation(l));
+  return p;
 }
 
 std::vector<Vec3> ClothBody::pin_targets(double t) const {

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/geometry/rigid_motion.hpp>
+#include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/attachment.hpp>
 #include <mgcloth/physics/contact.hpp>
@@ -35,6 +36,8 @@ class ClothBody {
   /// Contact projection and friction after the solve: x_new is projected, v = (x_new − x)/h then filtered.
   void finish_step(VecX& x_new, double t_next, double h);
   std::vector<Vec3> pin_targets(double t) const;
+  /// The cloth's mesh hierarchy (Wang 2018 App. B), built on first use with the pinned vertices kept.
+  const hierarchy::TriangleHierarchy& hierarchy(const hierarchy::HierarchyParams& params);
 
  private:
   std::string m_name;
@@ -51,7 +54,11 @@ class ClothBody {
   std::vector<size_t> m_pin_spec;  ///< which PinSpec each pinned vertex came from
   std::vector<PinSpec> m_pin_specs;
   std::vector<geometry::PointCurve> m_pin_curves;
+  std::unique_ptr<hierarchy::TriangleHierarchy> m_hierarchy;
 };
+
+/// The prolongation tables of a hierarchy, finest first (what solvers::Problem carries).
+std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h);
 
 /// Lumped (one third of each adjacent triangle) vertex areas in material space.
 VecX lumped_vertex_area(const mesh::TriMesh& mesh);

@@ -45,7 +45,17 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
     s.file = fs::absolute(fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
     s.material_scale = r.number("material_scale", 1.0, 1e-9, 1e9);
   } else {
-    const std::string gen = r.choice("generator", "rectangle", {"rectangle"});
+    s.generator = r.choice("generator", "rectangle", {"rectangle", "tube"});
+    if (s.generator == "tube") {
+      auto& tube = s.tube;
+      tube.circumference = r.number("circumference", tube.circumference, 1e-4, 1e3);
+      tube.height = r.number("height", tube.height, 1e-4, 1e3);
+      tube.target_vertices = r.integer("vertices", tube.target_vertices, 8, 5'000'000);
+      tube.unstructured = r.boolean("unstructured", tube.unstructured);
+      tube.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<int>(tube.seed), 0));
+      r.finish();
+      return s;
+    }
     auto& rect = s.rectangle;
     rect.width = r.number("width", rect.width, 1e-4, 1e3);
     rect.height = r.number("height", rect.height, 1e-4, 1e3);
@@ -132,6 +142,7 @@ ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
   }
   for (auto& p : r.objects("pins")) c.pins.push_back(parse_pin(p));
   c.initial_velocity = r.vec3("initial_velocity", Vec3::Zero());
+  c.seam_stiffness = r.number("seam_stiffness", 100.0 * c.material.youngs_modulus * c.material.thickness, 1e-6, 1e12);
   r.finish();
   return c;
 }
@@ -256,6 +267,16 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     so->finish();
   }
   (void)solvers::resolved_params(s.solver, file, "solver.params");  // rejects unknown solver parameters now
+  if (auto h = r.optional_object("hierarchy")) {
+    auto& p = s.hierarchy;
+    p.ratio = h->number("ratio", p.ratio, 1.5, 16.0);
+    p.min_coarse_vertices = h->integer("min_coarse_vertices", p.min_coarse_vertices, 3, 1'000'000);
+    p.max_coarse_vertices = h->integer("max_coarse_vertices", p.max_coarse_vertices, 3, 1'000'000);
+    if (p.max_coarse_vertices < p.min_coarse_vertices)
+      h->fail("max_coarse_vertices", fmt::format("must be at least min_coarse_vertices ({})", p.min_coarse_vertices));
+    p.seed = static_cast<std::uint64_t>(h->integer("seed", static_cast<int>(p.seed), 0));
+    h->finish();
+  }
   if (auto o = r.optional_object("output")) {
     s.output.dir = o->string("dir", s.output.dir);
     s.output.every = o->integer("every", s.output.every, 1, 1'000'000);
@@ -296,6 +317,10 @@ Json to_json(const Scene& s) {
     cj["name"] = c.name;
     if (!c.mesh.file.empty()) {
       cj["mesh"] = {{"file", c.mesh.file}, {"material_scale", c.mesh.material_scale}};
+    } else if (c.mesh.generator == "tube") {
+      const auto& t = c.mesh.tube;
+      cj["mesh"] = {{"generator", "tube"}, {"circumference", t.circumference}, {"height", t.height},
+                    {"vertices", t.target_vertices}, {"unstructured", t.unstructured}, {"seed", t.seed}};
     } else {
       const auto& r = c.mesh.rectangle;
       cj["mesh"] = {{"generator", "rectangle"}, {"width", r.width},      {"height", r.height},
@@ -335,6 +360,7 @@ Json to_json(const Scene& s) {
       cj["pins"].push_back(pj);
     }
     cj["initial_velocity"] = vec_json(c.initial_velocity);
+    cj["seam_stiffness"] = c.seam_stiffness;
     j["cloths"].push_back(cj);
   }
   j["obstacles"] = Json::array();
@@ -369,6 +395,10 @@ Json to_json(const Scene& s) {
                  {"max_iters", s.solver.stop.max_iters},
                  {"max_seconds", std::isfinite(s.solver.stop.max_seconds) ? s.solver.stop.max_seconds : 1e30},
                  {"params", solvers::resolved_params(s.solver, s.file, "solver.params")}};
+  j["hierarchy"] = {{"ratio", s.hierarchy.ratio},
+                    {"min_coarse_vertices", s.hierarchy.min_coarse_vertices},
+                    {"max_coarse_vertices", s.hierarchy.max_coarse_vertices},
+                    {"seed", s.hierarchy.seed}};
   j["output"] = {{"dir", s.output.dir}, {"every", s.output.every}, {"format", s.output.formats}};
   return j;
 }

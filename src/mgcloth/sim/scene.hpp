@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/geometry/obstacle.hpp>
+#include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/physics/contact.hpp>
 #include <mgcloth/physics/material.hpp>
@@ -12,11 +13,13 @@
 
 namespace mgcloth::sim {
 
-/// Where a cloth's mesh comes from: an OBJ file or the rectangle generator.
+/// Where a cloth's mesh comes from: an OBJ file or a generator.
 struct MeshSource {
   std::string file;             ///< resolved path when the mesh is read from OBJ (empty: generated)
   double material_scale = 1.0;  ///< metres per UV unit
+  std::string generator = "rectangle";  ///< rectangle | tube
   mesh::RectangleSpec rectangle;
+  mesh::TubeSpec tube;
 };
 
 /// Rigid placement of a cloth's initial state: x = R p + t (R from XYZ Euler angles in degrees).
@@ -47,6 +50,8 @@ struct ClothSpec {
   physics::Material material;
   std::vector<PinSpec> pins;
   Vec3 initial_velocity = Vec3::Zero();
+  /// N/m, the springs closing stitched seams; 0 in a spec means "100 × in-plane stiffness E·t" (resolved at parse).
+  double seam_stiffness = 0.0;
 };
 
 struct ObstacleSpec {
@@ -86,6 +91,7 @@ struct Scene {
   std::vector<ObstacleSpec> obstacles;
   physics::ContactParams contact;
   solvers::SolverConfig solver;
+  hierarchy::HierarchyParams hierarchy;  ///< mesh hierarchy for the multilevel solvers (pins are always kept)
   OutputSpec output;
 
   double step_size() const { return frame_time / substeps; }

@@ -36,6 +36,7 @@ std::vector<StepStats> Simulator::step() {
     VecX x = body.prepare_step(t, h);
     solvers::Problem problem;
     problem.objective = &body.objective();
+    if (m_solvers[c]->needs_hierarchy()) problem.prolongations = prolongations(body.hierarchy(m_scene.hierarchy));
     if (body.contact()) {
       const auto* contact = body.contact();
       problem.project = [contact](VecX& y) {

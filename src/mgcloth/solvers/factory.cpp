@@ -7,7 +7,12 @@ namespace {
 NewtonParams newton_params(const Json& j, const std::string& file, const std::string& path) {
   JsonReader r(j, file, path);
   NewtonParams p;
-  p.linear_solver = r.choice("linear_solver", p.linear_solver, {"cholmod"});
+  p.linear.method = r.choice("linear_solver", p.linear.method, linear_methods());
+  p.linear.rel_tol = r.number("linear_tol", p.linear.rel_tol, 0.0, 0.9);
+  p.linear.max_iters = r.integer("linear_max_iters", p.linear.max_iters, 1, 1'000'000);
+  p.linear.multigrid.pre_smooth = r.integer("pre_smooth", p.linear.multigrid.pre_smooth, 0, 100);
+  p.linear.multigrid.post_smooth = r.integer("post_smooth", p.linear.multigrid.post_smooth, 0, 100);
+  p.linear.multigrid.chebyshev = r.boolean("chebyshev", p.linear.multigrid.chebyshev);
   p.project_psd = r.boolean("project_psd", p.project_psd);
   p.exact_hessian_below = r.number("exact_hessian_below", p.exact_hessian_below, 0.0, 1.0);
   p.line_search.armijo = r.number("armijo", p.line_search.armijo, 1e-12, 0.5);
@@ -17,7 +22,12 @@ NewtonParams newton_params(const Json& j, const std::string& file, const std::st
   return p;
 }
 Json to_json(const NewtonParams& p) {
-  return {{"linear_solver", p.linear_solver},
+  return {{"linear_solver", p.linear.method},
+          {"linear_tol", p.linear.rel_tol},
+          {"linear_max_iters", p.linear.max_iters},
+          {"pre_smooth", p.linear.multigrid.pre_smooth},
+          {"post_smooth", p.linear.multigrid.post_smooth},
+          {"chebyshev", p.linear.multigrid.chebyshev},
           {"project_psd", p.project_psd},
           {"exact_hessian_below", p.exact_hessian_below},
           {"armijo", p.line_search.armijo},

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/linalg/chebyshev.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 
 namespace mgcloth::solvers {
@@ -25,6 +26,8 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
   for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
     const auto& Al = matrix(static_cast<Index>(l));
     m_levels[l].smoother.set_matrix(Al);
+    if (m_params.chebyshev && m_levels[l].rho == 0.0)
+      m_levels[l].rho = linalg::estimate_gauss_seidel_rho(Al, m_levels[l].smoother);
     m_levels[l].rap.compute(Al, m_levels[l + 1].A);  // Wang 2018 §3.1: A_{h+1} = Iᵀ A_h I
   }
   if (!m_coarse_solver.factorize(matrix(num_levels() - 1)))
@@ -37,15 +40,37 @@ void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
     return;
   }
   const auto& A = matrix(l);
-  const auto& smoother = m_levels[l].smoother;
-  smoother.symmetric_sweeps(b, x, m_params.pre_smooth);
+  smooth(l, b, x, m_params.pre_smooth);
   const VecX r = b - A * x;
   VecX rc, ec = VecX::Zero(3 * matrix(l + 1).rows()), correction;
   m_p[l]->apply_transpose(r, rc);
   cycle(l + 1, rc, ec);
   m_p[l]->apply(ec, correction);
   x += correction;
-  smoother.symmetric_sweeps(b, x, m_params.post_smooth);
+  smooth(l, b, x, m_params.post_smooth);
+}
+
+void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps) const {
+  const Level& level = m_levels[l];
+  if (m_params.chebyshev && level.rho > 0.0) linalg::chebyshev_gauss_seidel(level.smoother, b, x, sweeps, level.rho);
+  else level.smoother.symmetric_sweeps(b, x, sweeps);
+}
+
+void LinearMultigrid::fmg(const VecX& b, VecX& x) const {
+  if (!m_fine) throw Error("multigrid used before set_matrix()");
+  const Index L = num_levels();
+  std::vector<VecX> rhs(L);
+  rhs[0] = b;
+  for (Index l = 0; l + 1 < L; ++l) m_p[l]->apply_transpose(rhs[l], rhs[l + 1]);
+  VecX xc;
+  m_coarse_solver.solve(rhs[L - 1], xc);
+  for (Index l = L - 2; l >= 0; --l) {
+    VecX xf;
+    m_p[l]->apply(xc, xf);
+    cycle(l, rhs[l], xf);
+    xc.swap(xf);
+  }
+  x.swap(xc);
 }
 
 void LinearMultigrid::vcycle(const VecX& b, VecX& x) const {
@@ -56,30 +81,6 @@ void LinearMultigrid::vcycle(const VecX& b, VecX& x) const {
 void LinearMultigrid::precondition(const VecX& r, VecX& z) const {
   z = VecX::Zero(r.size());
   vcycle(r, z);
-}
-
-int pcg(const linalg::BlockMatrix3& A, const VecX& b, VecX& x, const std::function<void(const VecX&, VecX&)>& M,
-        double rel_tol, int max_iters) {
-  VecX r = b - A * x, z, p, Ap;
-  const double target = rel_tol * b.norm();
-  if (r.norm() <= target) return 0;
-  M(r, z);
-  p = z;
-  double rz = r.dot(z);
-  for (int k = 1; k <= max_iters; ++k) {
-    A.multiply(p, Ap);
-    const double pAp = p.dot(Ap);
-    if (!(pAp > 0.0)) throw SolveError(fmt::format("PCG: matrix not positive definite (pᵀAp = {})", pAp));
-    const double alpha = rz / pAp;
-    x += alpha * p;
-    r -= alpha * Ap;
-    if (r.norm() <= target) return k;
-    M(r, z);
-    const double rz_new = r.dot(z);
-    p = z + (rz_new / rz) * p;
-    rz = rz_new;
-  }
-  return max_iters;
 }
 
 }  // namespace mgcloth::solvers

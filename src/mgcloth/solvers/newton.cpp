@@ -7,7 +7,10 @@
 
 namespace mgcloth::solvers {
 
-Newton::Newton(NewtonParams params) : m_params(std::move(params)), m_linear(linalg::make_linear_solver(m_params.linear_solver)) {}
+Newton::Newton(NewtonParams params) : m_params(std::move(params)) {
+  if (!solvers::needs_hierarchy(m_params.linear.method))
+    m_linear = make_newton_linear_solver(m_params.linear, {}, linalg::BlockMatrix3());
+}
 
 namespace {
 void check_finite(double e, double gnorm, int iter) {
@@ -28,6 +31,17 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
+  if (!m_linear || (needs_hierarchy() && m_linear_for != problem.prolongations)) {
+    m_linear = make_newton_linear_solver(m_params.linear, problem.prolongations, obj.hessian_pattern());
+    m_linear_for = problem.prolongations;
+  }
+  m_linear_iterations = 0;
+  // Solves with the matrix just computed; false when it turned out not positive definite.
+  const auto solve = [&](double rel_tol) {
+    if (!m_linear->solve(-g, d, rel_tol)) return false;
+    m_linear_iterations += m_linear->iterations();
+    return true;
+  };
   const auto energy = [&](const VecX& y) { return obj.value(y); };
   double shift = 0.0;
   bool try_exact = true;
@@ -42,10 +56,12 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       rep.status = "time_limit";
       break;
     }
+    const double forcing = m_params.linear.rel_tol > 0.0 ? m_params.linear.rel_tol
+                                                          : std::min(0.01, gnorm / rep.initial_grad_norm);
     bool factored = false;
     if (m_params.project_psd && try_exact && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
       obj.hessian(x, m_hessian, false);
-      factored = m_linear->compute(m_hessian, 0.0);
+      factored = m_linear->compute(m_hessian, 0.0) && solve(forcing) && g.dot(d) < 0.0;
       // An indefinite exact Hessian means the iterate is not yet in a convex basin; retrying every iteration
       // would double the cost of each one, so the rest of this solve stays projected.
       try_exact = factored;
@@ -60,12 +76,11 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       shift = shift > 0.0 ? shift * 0.25 : 0.0;
       if (shift < 1e-10 * mean_diag) shift = 0.0;
       int tries = 0;
-      while (!m_linear->compute(m_hessian, shift)) {
+      while (!(m_linear->compute(m_hessian, shift) && solve(forcing))) {
         shift = shift > 0.0 ? 10.0 * shift : 1e-8 * mean_diag;
         if (++tries > 20) throw SolveError(fmt::format("Newton: Hessian could not be made positive definite at iteration {}", k));
       }
     }
-    m_linear->solve(-g, d);
     double slope = g.dot(d);
     if (!(slope < 0.0)) {  // not a descent direction (numerical trouble): fall back to steepest descent
       d = -g;

@@ -1,12 +1,12 @@
 #pragma once
-#include <mgcloth/linalg/linear_solver.hpp>
+#include <mgcloth/solvers/newton_linear.hpp>
 #include <mgcloth/solvers/line_search.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 namespace mgcloth::solvers {
 
 struct NewtonParams {
-  std::string linear_solver = "cholmod";
+  LinearSolveParams linear;
   bool project_psd = true;  ///< per-element PSD projection of the Hessian
   /// Below this relative gradient, the exact (unprojected) Hessian is tried first and kept when it is positive
   /// definite: near a stable minimum it usually is, and exact Newton converges quadratically where the projected
@@ -16,18 +16,24 @@ struct NewtonParams {
 };
 
 /// Newton's method with a backtracking line search: H d = −∇E with the (projected) Hessian, solved by a linear
-/// solver; if H is not positive definite, H + σI with growing σ (Levenberg) is used for that iteration.
+/// solver (direct, or iterative to a forcing tolerance: inexact Newton); if H is not positive definite,
+/// H + σI with growing σ (Levenberg) is used for that iteration.
 /// Convergence is measured by the gradient norm relative to the start point's.
 class Newton final : public NonlinearSolver {
  public:
   explicit Newton(NewtonParams params = {});
   std::string name() const override { return "newton"; }
+  bool needs_hierarchy() const override { return solvers::needs_hierarchy(m_params.linear.method); }
+  /// Linear iterations (CG iterations or V-cycles; 1 per direct solve) summed over the last minimize().
+  long linear_iterations() const { return m_linear_iterations; }
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
 
  private:
   NewtonParams m_params;
-  std::unique_ptr<linalg::LinearSolver> m_linear;
+  std::unique_ptr<NewtonLinearSolver> m_linear;
+  std::vector<const hierarchy::TransferTable*> m_linear_for;  ///< the hierarchy m_linear was built for
   linalg::BlockMatrix3 m_hessian;
+  long m_linear_iterations = 0;
 };
 
 }  // namespace mgcloth::solvers

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
+#include <mgcloth/hierarchy/transfer.hpp>
 #include <mgcloth/physics/objective.hpp>
 
 #include <functional>
@@ -16,6 +17,9 @@ struct Problem {
   /// Optional: makes an iterate feasible (obstacle projection, Wang 2018 §4.5); called after accepted updates
   /// by solvers that support it.
   std::function<void(VecX&)> project;
+  /// Mesh hierarchy for multilevel solvers: prolongations[l] maps level l+1 to level l (level 0 = the objective's
+  /// vertices). Empty when the solver does not need one (NonlinearSolver::needs_hierarchy()).
+  std::vector<const hierarchy::TransferTable*> prolongations;
 };
 
 struct Stop {
@@ -49,6 +53,8 @@ class NonlinearSolver {
  public:
   virtual ~NonlinearSolver() = default;
   virtual std::string name() const = 0;
+  /// Whether minimize() needs Problem::prolongations.
+  virtual bool needs_hierarchy() const { return false; }
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
