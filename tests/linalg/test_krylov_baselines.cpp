@@ -103,7 +103,7 @@ TEST(Pcg, StartsFromTheGivenGuessAndRejectsIndefiniteMatrices) {
 }
 
 TEST(HypreAmg, NeedsFarFewerIterationsThanPlainCGOnPlaneElasticity) {
-  const BlockMatrix3 A = sheet_system(45);
+  const BlockMatrix3 A = sheet_system(32);
   const VecX b = random_vector(3 * A.rows(), 3);
   HypreAmg amg;
   amg.set_matrix(A);
@@ -114,7 +114,6 @@ TEST(HypreAmg, NeedsFarFewerIterationsThanPlainCGOnPlaneElasticity) {
   EXPECT_LE(relative_residual(A, b, x_amg), 1e-8);
   EXPECT_LT(it_amg, 40);
   EXPECT_LT(10 * it_amg, it_cg) << "BoomerAMG-PCG " << it_amg << ", CG " << it_cg;
-  std::printf("BoomerAMG-PCG %d, CG %d\n", it_amg, it_cg);
 }
 
 TEST(HypreAmg, TakesNewValuesForTheSamePattern) {

@@ -73,5 +73,4 @@ TEST(KrylovBaselines, BlockJacobiAndBoomerAmgPcgMatchCholmodOnAClothHessian) {
   }
   EXPECT_LT(it_amg, 40);
   EXPECT_LT(5 * it_amg, it_jacobi) << "BoomerAMG-PCG " << it_amg << ", block-Jacobi PCG " << it_jacobi;
-  std::printf("BoomerAMG-PCG %d, block-Jacobi PCG %d\n", it_amg, it_jacobi);
 }

@@ -98,7 +98,11 @@ void CholmodSolver::solve(const VecX& b, VecX& x) const {
   if (!m->L) throw_error("CholmodSolver::solve called before factorize");
   cholmod_dense* B = cholmod_allocate_dense(b.size(), 1, b.size(), CHOLMOD_REAL, &m->common);
   std::copy(b.data(), b.data() + b.size(), static_cast<double*>(B->x));
+  // The triangular solves call BLAS per supernode too: one thread, for the reason given in factorize().
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
   cholmod_dense* X = cholmod_solve(CHOLMOD_A, m->L, B, &m->common);
+  omp_set_num_threads(threads);
   if (!X) {
     cholmod_free_dense(&B, &m->common);
     throw_error("CHOLMOD: solve failed (status {})", m->common.status);
