@@ -62,19 +62,6 @@ void save_state(const std::string& path, Index n, const VecX& x, const VecX& v) 
   out.write(reinterpret_cast<const char*>(v.data()), static_cast<std::streamsize>(sizeof(double) * v.size()));
 }
 
-/// Asymptotic residual reduction per V-cycle on A e = r from a random start (geometric mean of cycles 4-10).
-double contraction(const solvers::LinearMultigrid& mg, const linalg::BlockMatrix3& A, const VecX& b) {
-  VecX x = VecX::Zero(b.size());
-  double r3 = 0.0, r10 = 0.0;
-  for (int k = 1; k <= 10; ++k) {
-    mg.vcycle(b, x);
-    const double r = (b - A * x).norm();
-    if (k == 3) r3 = r;
-    if (k == 10) r10 = r;
-  }
-  return std::pow(r10 / r3, 1.0 / 7.0);
-}
-
 Eigen::SparseMatrix<double> scalar_prolongation(const hierarchy::TransferTable& P) {
   std::vector<Eigen::Triplet<double>> trip;
   for (Index i = 0; i < P.num_fine; ++i)
@@ -206,7 +193,7 @@ int main(int argc, char** argv) {
         if (mg_info.empty() || m == "pcg-mg11") {
           char buf[128];
           std::snprintf(buf, sizeof buf, "%sV(%d,%d) contraction %.3f", mg_info.empty() ? "" : ", ", p.pre_smooth,
-                        p.post_smooth, contraction(mg, H, b));
+                        p.post_smooth, mg.contraction(b));
           mg_info += buf;
         }
       } else {

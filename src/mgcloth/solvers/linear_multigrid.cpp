@@ -2,6 +2,8 @@
 #include <mgcloth/linalg/chebyshev.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 
+#include <cmath>
+
 namespace mgcloth::solvers {
 
 LinearMultigrid::LinearMultigrid(std::vector<const hierarchy::TransferTable*> p, const linalg::BlockMatrix3& fine_pattern,
@@ -54,6 +56,18 @@ void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps) const 
   const Level& level = m_levels[l];
   if (m_params.chebyshev && level.rho > 0.0) linalg::chebyshev_gauss_seidel(level.smoother, b, x, sweeps, level.rho);
   else level.smoother.symmetric_sweeps(b, x, sweeps);
+}
+
+double LinearMultigrid::contraction(const VecX& b) const {
+  VecX x = VecX::Zero(b.size());
+  double r3 = 0.0, r10 = 0.0;
+  for (int k = 1; k <= 10; ++k) {
+    vcycle(b, x);
+    const double r = (b - matrix(0) * x).norm();
+    if (k == 3) r3 = r;
+    if (k == 10) r10 = r;
+  }
+  return std::pow(r10 / r3, 1.0 / 7.0);
 }
 
 void LinearMultigrid::fmg(const VecX& b, VecX& x) const {
