@@ -50,7 +50,7 @@ std::vector<Index> select_pins(const PinSpec& p, const mesh::TriMesh& m, const s
 }  // namespace
 
 ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
-                     const physics::ContactParams& contact, const Vec3& gravity)
+                     const physics::ContactParams& contact, const Vec3& gravity, bool projective)
     : m_name(spec.name), m_mesh(load_mesh(spec)), m_material_scale(spec.mesh.material_scale), m_pin_specs(spec.pins) {
   m_topology = mesh::build_topology(m_mesh, spec.mesh.file.empty() ? spec.name : spec.mesh.file);
   // Initial world state: the mesh's own positions, placed by the cloth's transform.
@@ -63,6 +63,7 @@ ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle
   m_area = lumped_vertex_area(m_mesh);
   m_mass = m_area * spec.material.areal_density();
 
+  if (projective) throw InputError("the Projective Dynamics formulation is not available yet");
   m_objective = physics::Objective(n);
   m_inertia = &m_objective.add(std::make_unique<physics::InertiaTerm>(m_mass));
   m_objective.add(std::make_unique<physics::GravityTerm>(m_mass, gravity));

@@ -13,8 +13,9 @@ namespace mgcloth::sim {
 /// One cloth: its discretization, its per-step objective, and its state.
 class ClothBody {
  public:
+  /// `projective`: build the Projective Dynamics form of the energy (NonlinearSolver::projective()).
   ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles, const physics::ContactParams& contact,
-            const Vec3& gravity);
+            const Vec3& gravity, bool projective = false);
 
   const std::string& name() const { return m_name; }
   const mesh::TriMesh& mesh() const { return m_mesh; }

@@ -16,14 +16,31 @@ Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
   }
   for (size_t i = 0; i < m_scene.cloths.size(); ++i) {
     const auto& c = m_scene.cloths[i];
+    // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
+    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver"));
     try {
-      m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity));
+      m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
+                                                     m_solvers.back()->projective()));
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
-    // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
-    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver"));
   }
+}
+
+solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
+  ClothBody& body = *m_cloths[c];
+  x0 = body.prepare_step(time(), m_scene.step_size());
+  solvers::Problem problem;
+  problem.objective = &body.objective();
+  if (m_solvers[c]->needs_hierarchy() || m_solvers[c]->needs_level_objectives())
+    problem.prolongations = prolongations(body.hierarchy(m_scene.hierarchy));
+  if (body.contact()) {
+    const auto* contact = body.contact();
+    problem.project = [contact](VecX& y) {
+      return physics::project_out_of_obstacles(y, contact->obstacles(), contact->poses());
+    };
+  }
+  return problem;
 }
 
 std::vector<StepStats> Simulator::step() {
@@ -33,16 +50,8 @@ std::vector<StepStats> Simulator::step() {
   for (size_t c = 0; c < m_cloths.size(); ++c) {
     Timer timer;
     ClothBody& body = *m_cloths[c];
-    VecX x = body.prepare_step(t, h);
-    solvers::Problem problem;
-    problem.objective = &body.objective();
-    if (m_solvers[c]->needs_hierarchy()) problem.prolongations = prolongations(body.hierarchy(m_scene.hierarchy));
-    if (body.contact()) {
-      const auto* contact = body.contact();
-      problem.project = [contact](VecX& y) {
-        physics::project_out_of_obstacles(y, contact->obstacles(), contact->poses());
-      };
-    }
+    VecX x;
+    solvers::Problem problem = prepare_problem(c, x);
     StepStats s;
     try {
       s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);

@@ -36,6 +36,12 @@ class Simulator {
   long step_count() const { return m_step; }
   double time() const { return static_cast<double>(m_step) * m_scene.step_size(); }
 
+  /// The problem of the next step of cloth c (the objective prepared for t → t + h, with hierarchy, contact
+  /// projection and coarse objectives as its solver needs) and its start point x0, without solving it. Used by
+  /// step() and by benchmarks that freeze one step's objective. Valid until the next prepare or step.
+  solvers::Problem prepare_problem(size_t c, VecX& x0);
+  solvers::NonlinearSolver& solver(size_t c) { return *m_solvers[c]; }
+
   /// Runs the substeps of the next frame.
   std::vector<StepStats> advance_frame();
   /// One step of every cloth.

@@ -15,11 +15,17 @@ namespace mgcloth::solvers {
 struct Problem {
   const physics::Objective* objective = nullptr;
   /// Optional: makes an iterate feasible (obstacle projection, Wang 2018 §4.5); called after accepted updates
-  /// by solvers that support it.
-  std::function<void(VecX&)> project;
+  /// by solvers that support it. Returns the number of vertices it moved (0: x unchanged).
+  std::function<Index(VecX&)> project;
   /// Mesh hierarchy for multilevel solvers: prolongations[l] maps level l+1 to level l (level 0 = the objective's
   /// vertices). Empty when the solver does not need one (NonlinearSolver::needs_hierarchy()).
   std::vector<const hierarchy::TransferTable*> prolongations;
+  /// For solvers that rediscretize the problem on coarse levels (FAS, RMTR): level_objectives[l] is the same
+  /// step's objective built on the coarse mesh of level l+1 (same terms, coarse masses, pins and obstacles), and
+  /// injection[l][i] the index on level l of vertex i of level l+1 (the vertex sets are nested). Empty unless
+  /// NonlinearSolver::needs_level_objectives().
+  std::vector<const physics::Objective*> level_objectives;
+  std::vector<const std::vector<Index>*> injection;
 };
 
 struct Stop {
@@ -55,6 +61,11 @@ class NonlinearSolver {
   virtual std::string name() const = 0;
   /// Whether minimize() needs Problem::prolongations.
   virtual bool needs_hierarchy() const { return false; }
+  /// Whether minimize() needs Problem::level_objectives and Problem::injection (implies needs_hierarchy()).
+  virtual bool needs_level_objectives() const { return false; }
+  /// Whether this solver minimizes the Projective Dynamics form of the cloth energy (Bouaziz 2014: strain
+  /// constraints with a constant global matrix as the Hessian) instead of the elastic (StVK) form.
+  virtual bool projective() const { return false; }
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
