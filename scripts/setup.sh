@@ -9,6 +9,7 @@ PACKAGES=(
   libeigen3-dev libsuitesparse-dev libhypre-dev libopenblas0-openmp libcgal-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtinyobjloader-dev
   libgtest-dev libbenchmark-dev libpng-dev
+  python3-matplotlib
 )
 
 missing=()

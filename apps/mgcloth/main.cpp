@@ -15,12 +15,14 @@ int main(int argc, char** argv) {
   mgcloth::cli::add_run_command(app);
   mgcloth::cli::add_info_command(app);
   mgcloth::cli::add_hierarchy_command(app);
+  mgcloth::cli::add_bench_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
   try {
+    if (CLI::App* bench = app.get_subcommand("bench"); bench->parsed()) return mgcloth::cli::run_bench_command(*bench);
     return mgcloth::cli::dispatch(app);
   } catch (const mgcloth::Error& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());

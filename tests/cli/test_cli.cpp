@@ -12,7 +12,9 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <sys/wait.h>
 
@@ -299,5 +301,122 @@ TEST_F(Cli, HierarchyRejectsBadInputWithOneLine) {
   expect_error(run("hierarchy " + quad + out + " --material-scale 0"), "--material-scale");
   expect_error(run("hierarchy " + scene + " --out " + quad), "not a folder");
   EXPECT_NE(run("hierarchy " + scene).code, 0);  // --out is required
+  EXPECT_FALSE(fs::exists(dir / "o"));
+}
+
+namespace {
+/// The rows of a convergence.csv per solver, in file order: (iteration, rel_energy_error).
+std::map<std::string, std::vector<std::pair<int, double>>> convergence_rows(const std::string& csv) {
+  std::map<std::string, std::vector<std::pair<int, double>>> rows;
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    std::vector<std::string> cols;
+    std::istringstream cs(line);
+    for (std::string c; std::getline(cs, c, ',');) cols.push_back(c);
+    EXPECT_EQ(cols.size(), 6u) << line;
+    if (cols.size() == 6) rows[cols[0]].emplace_back(std::stoi(cols[1]), std::stod(cols[5]));
+  }
+  return rows;
+}
+bool plot_unavailable(const Result& r) {
+  return r.code != 0 && r.out.find("convergence.png") != std::string::npos &&
+         (r.out.find("matplotlib") != std::string::npos || r.out.find("not found") != std::string::npos);
+}
+/// A picture with something drawn on it (not one flat colour).
+void expect_plot(const fs::path& png) {
+  const auto img = mgcloth::Image::read_png(png);
+  EXPECT_GT(img.width(), 200);
+  EXPECT_GT(img.height(), 200);
+  long dark = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) dark += img.pixel(x, y).r < 128;
+  EXPECT_GT(dark, 500);
+}
+}  // namespace
+
+TEST_F(Cli, BenchConvergenceWritesCsvJsonAndPlot) {
+  const fs::path out = dir / "conv";
+  const auto r = run("bench convergence " + small_scene() +
+                     " --step 2 --vertices 300 --solvers newton,newton@linear_solver=pcg-jacobi --budget 3 --max-iters 40 "
+                     "--threads 1 --quiet --out " + out.string());
+  ASSERT_TRUE(r.code == 0 || plot_unavailable(r)) << r.out;
+  const auto csv = mgcloth::read_file(out / "convergence.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "solver,iteration,wall_s,energy,grad_norm,rel_energy_error");
+  const auto rows = convergence_rows(csv);
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& [solver, points] : rows) {
+    ASSERT_GE(points.size(), 2u) << solver;
+    EXPECT_EQ(points.front().first, 0) << solver;
+    EXPECT_EQ(points.front().second, 1.0) << solver;
+    EXPECT_LT(std::abs(points.back().second), 1e-6) << solver;
+  }
+  EXPECT_TRUE(rows.count("newton@linear_solver=pcg-jacobi"));
+  const auto report = mgcloth::parse_json(mgcloth::read_file(out / "convergence.json"), "convergence.json");
+  EXPECT_EQ(report.at("step"), 2);
+  EXPECT_EQ(report.at("references")[0].at("form"), "elastic");
+  EXPECT_TRUE(report.at("references")[0].at("energy").is_number());
+  ASSERT_EQ(report.at("solvers").size(), 2u);
+  for (const auto& s : report.at("solvers")) {
+    EXPECT_TRUE(s.at("time_to").at("1e-04").is_number()) << s.dump();
+    EXPECT_GE(s.at("iterations").get<int>(), 1);
+  }
+  // The table names both solvers.
+  EXPECT_NE(r.out.find("newton@linear_solver=pcg-jacobi"), std::string::npos) << r.out;
+  for (const auto& e : fs::directory_iterator(out)) EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos);
+  if (r.code != 0) GTEST_SKIP() << "no convergence.png: python3 with matplotlib is unavailable: " << r.out;
+  expect_plot(out / "convergence.png");
+}
+
+TEST_F(Cli, BenchWithoutPythonStillWritesTheDataAndFails) {
+  ::setenv("MGCLOTH_PYTHON", "/nonexistent/python3", 1);
+  const auto r = run("bench convergence " + small_scene() + " --step 1 --vertices 100 --solvers newton --budget 1 -q -j 1 --out " +
+                     (dir / "o").string());
+  ::unsetenv("MGCLOTH_PYTHON");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("could not make"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("/nonexistent/python3 not found"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "o" / "convergence.csv"));
+  EXPECT_TRUE(fs::exists(dir / "o" / "convergence.json"));
+  EXPECT_FALSE(fs::exists(dir / "o" / "convergence.png"));
+}
+
+TEST_F(Cli, BenchScalabilityWritesCsvAndPlot) {
+  const fs::path out = dir / "scal";
+  const auto r = run("bench scalability " + small_scene() + " --vertices 100,200 --solver newton --steps 1 --warmup 0 -j 1 -q --out " +
+                     out.string());
+  ASSERT_TRUE(r.code == 0 || (r.code == 1 && r.out.find("scalability.png") != std::string::npos)) << r.out;
+  const auto csv = mgcloth::read_file(out / "scalability.csv");
+  EXPECT_EQ(csv.rfind("vertices,solver,ms_per_step,iterations_per_step,", 0), 0u) << csv;
+  EXPECT_EQ(count_lines(csv), 3) << csv;
+  EXPECT_NE(csv.find(",newton,"), std::string::npos) << csv;
+  if (r.code != 0) GTEST_SKIP() << "no scalability.png: python3 with matplotlib is unavailable: " << r.out;
+  expect_plot(out / "scalability.png");
+}
+
+TEST_F(Cli, BenchRejectsBadInputWithOneLine) {
+  const auto scene = small_scene();
+  const std::string out = " --out " + (dir / "o").string();
+  const auto expect_error = [](const Result& r, const std::string& text) {
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find(text), std::string::npos) << r.out;
+    EXPECT_EQ(count_lines(r.out), 1) << r.out;
+  };
+  const std::string conv = "bench convergence " + scene + out;
+  expect_error(run(conv + " --step 2 --solvers newton,nonsense"), "unknown solver \"nonsense\"");
+  expect_error(run(conv + " --step 2 --solvers newton@linear_slver=cholmod"), "linear_slver: unknown key");
+  expect_error(run(conv + " --step 0 --solvers newton"), "--step: must be at least 1");
+  expect_error(run(conv + " --step 2 --solvers ,"), "--solvers");
+  expect_error(run(conv + " --step 2 --solvers newton@oops"), "not key=value");
+  expect_error(run("bench convergence " + (dir / "absent.json").string() + out + " --step 2 --solvers newton"),
+               "absent.json: no such file");
+  expect_error(run("bench convergence " + scene + " --out " + scene + " --step 2 --solvers newton"), "not a folder");
+  const std::string scal = "bench scalability " + scene + out;
+  expect_error(run(scal + " --vertices 100,2k --solver newton"), "--vertices: \"2k\" is not a vertex count");
+  expect_error(run(scal + " --vertices 100,,200 --solver newton"), "--vertices");
+  expect_error(run(scal + " --vertices 100 --solver nonsense"), "unknown solver \"nonsense\"");
+  EXPECT_NE(run("bench convergence " + scene + " --solvers newton" + out).code, 0);  // --step is required
+  EXPECT_NE(run("bench").code, 0);
   EXPECT_FALSE(fs::exists(dir / "o"));
 }

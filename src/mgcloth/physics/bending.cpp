@@ -65,6 +65,18 @@ double HingeBending::element(Index e, const Local& xe, Local* g, LocalHessian* H
   return c * theta * theta;
 }
 
+void HingeBending::element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
+  const Vec3 e01 = xe.segment<3>(3) - xe.segment<3>(0);
+  const double tiny = 1e-24 * e01.squaredNorm() * e01.squaredNorm();
+  if (e01.cross(xe.segment<3>(6) - xe.segment<3>(0)).squaredNorm() <= tiny ||
+      e01.cross(xe.segment<3>(9) - xe.segment<3>(0)).squaredNorm() <= tiny) {
+    H.setZero();
+    return;
+  }
+  const Vec12 dtheta = dihedral_angle_gradient<double>(xe);
+  H = 2.0 * m_weight[e] * dtheta * dtheta.transpose();
+}
+
 QuadraticBending::QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topo, const Material& m) {
   m_k.resize(topo.hinges.size());
   m_weight.resize(topo.hinges.size());

@@ -48,6 +48,9 @@ class HingeBending final : public ElementTerm<4> {
   HingeBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_hinge"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  /// Gauss-Newton: 2c ∇θ∇θᵀ, dropping the 2cθ∇²θ part, which is indefinite for any θ ≠ 0 and whose projection
+  /// would need a 12x12 eigendecomposition per hinge. Exact at the flat rest state.
+  void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
 
  private:
   std::vector<double> m_weight;

@@ -26,6 +26,14 @@ class ElementTerm : public Term {
 
   /// Energy of element e; fills g and H when they are non-null.
   virtual double element(Index e, const Local& xe, Local* g, LocalHessian* H) const = 0;
+  /// A positive semi-definite approximation of element e's Hessian: by default the exact Hessian with its negative
+  /// eigenvalues clamped. Terms with a closed-form PSD part override it: an eigendecomposition per element costs
+  /// 10-15x the exact Hessian and would dominate every solver's assembly.
+  virtual void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
+    Local g;
+    element(e, xe, &g, &H);
+    project_psd(H);
+  }
 
   Local gather(const VecX& x, Index e) const {
     Local xe;
@@ -52,10 +60,13 @@ class ElementTerm : public Term {
     for (const auto& color : m_colors) {
       parallel_for(static_cast<Index>(color.size()), [&](Index k) {
         const Index e = color[k];
-        Local ge;
         LocalHessian He = LocalHessian::Zero();
-        element(e, gather(x, e), &ge, &He);
-        if (project) project_psd(He);
+        if (project) {
+          element_psd_hessian(e, gather(x, e), He);
+        } else {
+          Local ge;
+          element(e, gather(x, e), &ge, &He);
+        }
         const Index* slots = &m_block_slots[static_cast<size_t>(e) * K * K];
         for (int a = 0; a < K; ++a)
           for (int b = 0; b < K; ++b) H.block(slots[a * K + b]) += He.template block<3, 3>(3 * a, 3 * b);

@@ -3,7 +3,18 @@
 
 namespace mgcloth::physics {
 
-double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, double lambda, Vec9* g, Mat9* H) {
+TriangleRest triangle_rest(const mesh::TriMesh& mesh, Index t) {
+  const Tri& tri = mesh.tris[t];
+  Mat2 dm;
+  dm.col(0) = mesh.u.col(tri[1]) - mesh.u.col(tri[0]);
+  dm.col(1) = mesh.u.col(tri[2]) - mesh.u.col(tri[0]);
+  const double det = dm.determinant();
+  if (!(det > 0.0)) throw_input_error("triangle {}: non-positive material area {}", t, 0.5 * det);
+  return {dm.inverse(), 0.5 * det};
+}
+
+double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, double lambda, Vec9* g, Mat9* H,
+                     bool clamp_stress) {
   Eigen::Matrix<double, 3, 2> ds;
   ds.col(0) = xe.segment<3>(3) - xe.segment<3>(0);
   ds.col(1) = xe.segment<3>(6) - xe.segment<3>(0);
@@ -24,13 +35,18 @@ double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, d
   if (H) {
     // ∂²W/∂x_a∂x_b = A t [(b_aᵀ S b_b) I + μ (F b_b)(F b_a)ᵀ + μ (b_a·b_b) F Fᵀ + λ (F b_a)(F b_b)ᵀ],
     // from dP = dF S + F dS with dF = δ b_bᵀ.
+    Mat2 Sg = S;
+    if (clamp_stress) {
+      const Eigen::SelfAdjointEigenSolver<Mat2> eig(S);
+      Sg = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+    }
     const Mat3 FFt = F * F.transpose();
     std::array<Vec3, 3> Fb;
     for (int a = 0; a < 3; ++a) Fb[a] = F * b[a];
     for (int a = 0; a < 3; ++a)
       for (int c = 0; c < 3; ++c) {
         H->block<3, 3>(3 * a, 3 * c) =
-            at * (b[a].dot(S * b[c]) * Mat3::Identity() + mu * Fb[c] * Fb[a].transpose() +
+            at * (b[a].dot(Sg * b[c]) * Mat3::Identity() + mu * Fb[c] * Fb[a].transpose() +
                   mu * b[a].dot(b[c]) * FFt + lambda * Fb[a] * Fb[c].transpose());
       }
   }
@@ -43,13 +59,9 @@ StVKMembrane::StVKMembrane(const mesh::TriMesh& mesh, const Material& m)
   m_dm_inv.resize(els.size());
   m_area.resize(els.size());
   for (size_t t = 0; t < els.size(); ++t) {
-    Mat2 dm;
-    dm.col(0) = mesh.u.col(els[t][1]) - mesh.u.col(els[t][0]);
-    dm.col(1) = mesh.u.col(els[t][2]) - mesh.u.col(els[t][0]);
-    const double det = dm.determinant();
-    if (!(det > 0.0)) throw_input_error("triangle {}: non-positive material area {}", t, 0.5 * det);
-    m_dm_inv[t] = dm.inverse();
-    m_area[t] = 0.5 * det;
+    const TriangleRest rest = triangle_rest(mesh, static_cast<Index>(t));
+    m_dm_inv[t] = rest.dm_inv;
+    m_area[t] = rest.area;
   }
   set_elements(std::move(els), mesh.num_vertices());
 }
@@ -71,6 +83,10 @@ MassSpringMembrane::MassSpringMembrane(const mesh::TriMesh& mesh, const mesh::To
     m_stiffness[e] = m.youngs_modulus * m.thickness * area / (L * L);
   }
   set_elements(std::move(els), mesh.num_vertices());
+}
+
+void StVKMembrane::element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
+  stvk_triangle(xe, m_dm_inv[e], m_area[e] * m_thickness, m_mu, m_lambda, nullptr, &H, true);
 }
 
 double MassSpringMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {

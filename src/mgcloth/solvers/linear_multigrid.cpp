@@ -10,6 +10,7 @@ LinearMultigrid::LinearMultigrid(std::vector<const hierarchy::TransferTable*> p,
                                  MultigridParams params)
     : m_p(std::move(p)), m_levels(m_p.size() + 1), m_params(params) {
   const linalg::BlockMatrix3* pattern = &fine_pattern;
+  m_sizes.push_back(fine_pattern.rows());
   for (size_t l = 0; l < m_p.size(); ++l) {
     const auto& t = *m_p[l];
     if (t.num_fine != pattern->rows())
@@ -18,7 +19,9 @@ LinearMultigrid::LinearMultigrid(std::vector<const hierarchy::TransferTable*> p,
     m_levels[l].rap = linalg::GalerkinProduct(*pattern, t.num_coarse, t.offsets, t.indices, t.weights);
     m_levels[l + 1].A = m_levels[l].rap.coarse_pattern();
     pattern = &m_levels[l + 1].A;
+    m_sizes.push_back(pattern->rows());
   }
+  if (!m_params.factorize_coarsest) m_levels.back().smoother = linalg::MultiColorGaussSeidel(*pattern);
 }
 
 const linalg::BlockMatrix3& LinearMultigrid::matrix(Index l) const { return l == 0 ? *m_fine : m_levels[l].A; }
@@ -32,13 +35,19 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
       m_levels[l].rho = linalg::estimate_gauss_seidel_rho(Al, m_levels[l].smoother);
     m_levels[l].rap.compute(Al, m_levels[l + 1].A);  // Wang 2018 §3.1: A_{h+1} = Iᵀ A_h I
   }
-  if (!m_coarse_solver.factorize(matrix(num_levels() - 1)))
+  const Index last = num_levels() - 1;
+  if (!m_params.factorize_coarsest) {
+    m_levels[last].smoother.set_matrix(matrix(last));
+    if (m_params.chebyshev && m_levels[last].rho == 0.0)
+      m_levels[last].rho = linalg::estimate_gauss_seidel_rho(matrix(last), m_levels[last].smoother);
+  } else if (!m_coarse_solver.factorize(matrix(last))) {
     throw SolveError("multigrid: the coarsest Galerkin matrix is not positive definite");
+  }
 }
 
 void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
   if (l == num_levels() - 1) {
-    m_coarse_solver.solve(b, x);
+    coarse_solve(b, x);
     return;
   }
   const auto& A = matrix(l);
@@ -52,10 +61,21 @@ void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
   smooth(l, b, x, m_params.post_smooth);
 }
 
-void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps) const {
+void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask) const {
   const Level& level = m_levels[l];
-  if (m_params.chebyshev && level.rho > 0.0) linalg::chebyshev_gauss_seidel(level.smoother, b, x, sweeps, level.rho);
-  else level.smoother.symmetric_sweeps(b, x, sweeps);
+  if (m_params.chebyshev && level.rho > 0.0) linalg::chebyshev_gauss_seidel(level.smoother, b, x, sweeps, level.rho, mask);
+  else level.smoother.symmetric_sweeps(b, x, sweeps, mask);
+}
+
+void LinearMultigrid::vcycle(Index l, const VecX& b, VecX& x) const {
+  if (!m_fine) throw Error("multigrid used before set_matrix()");
+  cycle(l, b, x);
+}
+
+void LinearMultigrid::coarse_solve(const VecX& b, VecX& x) const {
+  if (!m_fine) throw Error("multigrid used before set_matrix()");
+  if (!m_params.factorize_coarsest) throw Error("multigrid: coarse solve without a coarse factorization");
+  m_coarse_solver.solve(b, x);
 }
 
 double LinearMultigrid::contraction(const VecX& b) const {

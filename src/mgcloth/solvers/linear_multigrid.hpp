@@ -14,6 +14,9 @@ struct MultigridParams {
   /// Chebyshev semi-iterative acceleration of the smoothing sweeps (Wang 2015). The spectral radius of each
   /// level's sweep is estimated on the first matrix and reused for later ones (same mesh, similar spectrum).
   bool chebyshev = false;
+  /// Factor the coarsest level (CHOLMOD). Off for a smoother-only use of a single level (nonlinear Gauss-Seidel),
+  /// which then gets a smoother on its coarsest level instead.
+  bool factorize_coarsest = true;
 };
 
 /// Linear geometric multigrid for the 3x3-block systems of Newton's method (Wang 2018 §3.1, Fig. 2a): Galerkin
@@ -38,6 +41,22 @@ class LinearMultigrid {
   /// Measured asymptotic residual reduction per V-cycle for A x = b from x = 0 (geometric mean over cycles 4 to 10),
   /// the multigrid convergence factor that benchmarks and tests report.
   double contraction(const VecX& b) const;
+  /// Level-wise pieces, for the nonlinear FMG (Wang 2018 §4.2), which uses each level's smoothed correction as a
+  /// search direction on the finest level.
+  /// `sweeps` smoothing iterations on level l (symmetric GS, or Chebyshev-accelerated when enabled); with a mask,
+  /// rows whose entry is 0 are skipped (adaptive smoothing, §4.3).
+  void smooth(Index l, const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask = nullptr) const;
+  /// One V-cycle with level l as the finest (levels l..coarsest); exact solve when l is the coarsest.
+  void vcycle(Index l, const VecX& b, VecX& x) const;
+  /// x = A_coarsest⁻¹ b.
+  void coarse_solve(const VecX& b, VecX& x) const;
+  /// Level l+1 → level l, and its transpose.
+  void prolong(Index l, const VecX& coarse, VecX& fine) const { m_p[l]->apply(coarse, fine); }
+  void restrict_to(Index l, const VecX& fine, VecX& coarse) const { m_p[l]->apply_transpose(fine, coarse); }
+  /// Vertices (block rows) of level l.
+  Index level_size(Index l) const { return m_sizes[l]; }
+  const MultigridParams& params() const { return m_params; }
+
   /// Spectral radius of each level's symmetric sweep used by Chebyshev smoothing (0 until estimated).
   double smoother_rho(Index l) const { return m_levels[l].rho; }
   Index num_levels() const { return static_cast<Index>(m_levels.size()); }
@@ -45,7 +64,6 @@ class LinearMultigrid {
 
  private:
   void cycle(Index l, const VecX& b, VecX& x) const;
-  void smooth(Index l, const VecX& b, VecX& x, int sweeps) const;
 
   struct Level {
     linalg::BlockMatrix3 A;  ///< levels >= 1 (level 0 points at the caller's matrix)
@@ -55,6 +73,7 @@ class LinearMultigrid {
   };
   std::vector<const hierarchy::TransferTable*> m_p;
   std::vector<Level> m_levels;
+  std::vector<Index> m_sizes;
   const linalg::BlockMatrix3* m_fine = nullptr;
   linalg::CholmodSolver m_coarse_solver;
   MultigridParams m_params;

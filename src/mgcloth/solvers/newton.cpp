@@ -34,6 +34,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   if (!m_linear || (needs_hierarchy() && m_linear_for != problem.prolongations)) {
     m_linear = make_newton_linear_solver(m_params.linear, problem.prolongations, obj.hessian_pattern());
     m_linear_for = problem.prolongations;
+    m_have_constant = false;
   }
   m_linear_iterations = 0;
   // Solves with the matrix just computed; false when it turned out not positive definite.
@@ -59,7 +60,23 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     const double forcing = m_params.linear.rel_tol > 0.0 ? m_params.linear.rel_tol
                                                           : std::min(0.01, gnorm / rep.initial_grad_norm);
     bool factored = false;
-    if (m_params.project_psd && try_exact && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
+    if (m_params.constant_matrix) {
+      // Projective Dynamics: the prefactored global matrix, refactored only when it changed.
+      bool changed = !m_have_constant;
+      if (m_have_constant && k == 0) {
+        obj.hessian(x, m_scratch, false);
+        changed = m_scratch.blocks() != m_hessian.blocks();
+        if (changed) std::swap(m_hessian, m_scratch);
+      } else if (!m_have_constant) {
+        obj.hessian(x, m_hessian, false);
+      }
+      if (changed && !m_linear->compute(m_hessian, 0.0))
+        throw SolveError(fmt::format("{}: the global matrix is not positive definite", m_name));
+      m_have_constant = true;
+      if (!solve(forcing)) throw SolveError(fmt::format("{}: the global solve failed at iteration {}", m_name, k));
+      factored = true;
+    }
+    if (!factored && m_params.project_psd && try_exact && gnorm < m_params.exact_hessian_below * rep.initial_grad_norm) {
       obj.hessian(x, m_hessian, false);
       factored = m_linear->compute(m_hessian, 0.0) && solve(forcing) && g.dot(d) < 0.0;
       // An indefinite exact Hessian means the iterate is not yet in a convex basin; retrying every iteration
@@ -82,6 +99,16 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       }
     }
     double slope = g.dot(d);
+    if (!m_params.use_line_search) {
+      x += d;
+      if (problem.project) problem.project(x);
+      e = obj.value(x);
+      obj.gradient(x, g);
+      gnorm = g.norm();
+      check_finite(e, gnorm, k + 1);
+      if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
+      continue;
+    }
     if (!(slope < 0.0)) {  // not a descent direction (numerical trouble): fall back to steepest descent
       d = -g;
       slope = -gnorm * gnorm;

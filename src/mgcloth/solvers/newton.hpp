@@ -13,6 +13,13 @@ struct NewtonParams {
   /// Hessian (which misrepresents compressed elements) only converges linearly. 0 disables.
   double exact_hessian_below = 1e-2;
   LineSearchParams line_search;
+  /// Take the full step without a line search (Projective Dynamics' global step, whose local step keeps the
+  /// iteration stable).
+  bool use_line_search = true;
+  /// The matrix does not depend on x (Projective Dynamics): it is assembled and factored on the first solve and
+  /// later solves reassemble it only to refactor when it changed (a new contact set).
+  bool constant_matrix = false;
+  bool projective = false;  ///< minimize the Projective Dynamics energy form
 };
 
 /// Newton's method with a backtracking line search: H d = −∇E with the (projected) Hessian, solved by a linear
@@ -22,7 +29,9 @@ struct NewtonParams {
 class Newton final : public NonlinearSolver {
  public:
   explicit Newton(NewtonParams params = {});
-  std::string name() const override { return "newton"; }
+  explicit Newton(NewtonParams params, std::string name) : Newton(std::move(params)) { m_name = std::move(name); }
+  std::string name() const override { return m_name; }
+  bool projective() const override { return m_params.projective; }
   bool needs_hierarchy() const override { return solvers::needs_hierarchy(m_params.linear.method); }
   /// Linear iterations (CG iterations or V-cycles; 1 per direct solve) summed over the last minimize().
   long linear_iterations() const { return m_linear_iterations; }
@@ -32,7 +41,9 @@ class Newton final : public NonlinearSolver {
   NewtonParams m_params;
   std::unique_ptr<NewtonLinearSolver> m_linear;
   std::vector<const hierarchy::TransferTable*> m_linear_for;  ///< the hierarchy m_linear was built for
-  linalg::BlockMatrix3 m_hessian;
+  std::string m_name = "newton";
+  linalg::BlockMatrix3 m_hessian, m_scratch;
+  bool m_have_constant = false;
   long m_linear_iterations = 0;
 };
 

@@ -53,6 +53,8 @@ struct SolveReport {
   double initial_grad_norm = 0.0;
   double wall_ms = 0.0;
   std::string status;  ///< "converged", "max_iters", "time_limit", "stalled" (no decrease possible in floating point)
+  /// Solver-specific counters of the solve (e.g. line-search evaluations, time per phase), for statistics.
+  std::vector<std::pair<std::string, double>> counters;
 };
 
 class NonlinearSolver {

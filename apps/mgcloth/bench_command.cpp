@@ -1,0 +1,328 @@
+// `mgcloth bench`: the solver benchmarks of sim/convergence.hpp with their outputs — CSV, a JSON summary, a table
+// on stdout and a plot drawn by the matplotlib scripts of bench/, which are embedded in the binary at build time and
+// run with python3 from a temporary copy (so the command works from any folder and when installed).
+#include "commands.hpp"
+
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/embedded/plot_convergence.hpp>
+#include <mgcloth/embedded/plot_scalability.hpp>
+#include <mgcloth/sim/convergence.hpp>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char** environ;
+
+namespace mgcloth::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct ConvergenceArgs {
+  std::string scene, solvers, out, state_cache;
+  int step = 0;
+  double budget = 10.0;
+  int max_iters = 10000;
+  int threads = 0;
+  int vertices = 0;
+  bool quiet = false;
+  CLI::Option* vertices_option = nullptr;
+} g_conv;
+
+struct ScalabilityArgs {
+  std::string scene, vertices, solver, out;
+  int steps = 3, warmup = 1;
+  double rel_grad = 1e-2;
+  int threads = 0;
+  bool quiet = false;
+} g_scal;
+
+struct ProcessResult {
+  bool started = false;
+  int code = -1;
+  std::string output;  ///< stdout and stderr together
+};
+
+/// Runs argv[0] (looked up in PATH) with its output captured; no shell, so paths need no quoting.
+ProcessResult run_process(const std::vector<std::string>& argv) {
+  ProcessResult r;
+  int pipe_fds[2];
+  if (::pipe(pipe_fds) != 0) return r;
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
+  posix_spawn_file_actions_addclose(&actions, pipe_fds[1]);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int err = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(pipe_fds[1]);
+  if (err == 0) {
+    char buf[4096];
+    for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, static_cast<size_t>(n));
+  }
+  ::close(pipe_fds[0]);
+  if (err != 0) return r;
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  r.started = r.code != 127;  // 127: the spawned shell-less exec failed
+  return r;
+}
+
+std::string last_line(const std::string& text) {
+  std::string t = text;
+  while (!t.empty() && (t.back() == '\n' || t.back() == '\r')) t.pop_back();
+  const auto nl = t.rfind('\n');
+  return nl == std::string::npos ? t : t.substr(nl + 1);
+}
+
+/// Draws `png` from `csv` with an embedded plot script. Interpreters tried: $MGCLOTH_PYTHON alone when set;
+/// otherwise python3 from PATH, then /usr/bin/python3 (Debian's python3-matplotlib lives there when PATH starts with
+/// a virtual environment or pyenv). Throws Error saying why the picture could not be made.
+void make_plot(std::string_view script, const std::string& script_name, const fs::path& csv, const fs::path& png,
+               const std::string& title) {
+  const fs::path tmp = fs::temp_directory_path() / fmt::format("mgcloth_{}_{}.py", script_name, ::getpid());
+  write_file_atomic(tmp, std::string(script));
+  struct Remove {
+    fs::path p;
+    ~Remove() {
+      std::error_code ec;
+      fs::remove(p, ec);
+    }
+  } remove_tmp{tmp};
+
+  std::vector<std::string> interpreters;
+  if (const char* env = std::getenv("MGCLOTH_PYTHON"); env && *env) {
+    interpreters.push_back(env);
+  } else {
+    interpreters = {"python3"};
+    if (fs::exists("/usr/bin/python3")) interpreters.push_back("/usr/bin/python3");
+  }
+  std::vector<std::string> why;
+  for (const auto& python : interpreters) {
+    std::vector<std::string> argv{python, tmp.string(), csv.string(), png.string()};
+    if (!title.empty()) argv.insert(argv.end(), {"--title", title});
+    const ProcessResult r = run_process(argv);
+    if (!r.started) {
+      why.push_back(fmt::format("{} not found", python));
+      continue;
+    }
+    if (r.code == 0 && fs::exists(png)) return;
+    if (r.code == 3) {  // the script's "matplotlib is missing"
+      why.push_back(fmt::format("{} has no matplotlib", python));
+      continue;
+    }
+    throw_error("could not make {}: {} {} failed (exit {}): {}", png.string(), python, script_name, r.code,
+                last_line(r.output));
+  }
+  throw_error("could not make {}: {} (install python3-matplotlib, or set MGCLOTH_PYTHON to a python3 that has it)",
+              png.string(), fmt::join(why, "; "));
+}
+
+void check_scene_file(const std::string& scene) {
+  if (!fs::exists(scene)) throw_input_error("{}: no such file", scene);
+  if (fs::is_directory(scene)) throw_input_error("{}: is a folder, not a scene file", scene);
+}
+
+/// Creates --out and checks that files can be written there, before any long computation.
+void prepare_out_dir(const fs::path& out) {
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec)) throw_input_error("--out: {} exists and is not a folder", out.string());
+  fs::create_directories(out, ec);
+  if (ec) throw_input_error("--out: cannot create {}: {}", out.string(), ec.message());
+  const fs::path probe = out / fmt::format(".mgcloth_write_test{}", ::getpid());
+  if (std::FILE* f = std::fopen(probe.c_str(), "w")) {
+    std::fclose(f);
+    fs::remove(probe, ec);
+  } else {
+    throw_input_error("--out: cannot write to {}", out.string());
+  }
+}
+
+/// "--solvers: <message>" for a spec the factory rejects.
+template <class F>
+auto with_prefix(const std::string& option, F&& f) {
+  try {
+    return f();
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", option, e.what()));
+  }
+}
+
+std::vector<Index> parse_vertex_list(const std::string& list) {
+  std::vector<Index> out;
+  size_t start = 0;
+  while (true) {
+    const size_t end = list.find(',', start);
+    std::string item = list.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    item.erase(0, item.find_first_not_of(' '));
+    item.erase(item.find_last_not_of(' ') + 1);
+    long long n = 0;
+    const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), n);
+    if (item.empty() || ec != std::errc() || ptr != item.data() + item.size())
+      throw_input_error("--vertices: \"{}\" is not a vertex count (expected a list like 40000,80000)", item);
+    if (n < 4 || n > 5'000'000) throw_input_error("--vertices: {} is out of range [4, 5000000]", n);
+    out.push_back(static_cast<Index>(n));
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return out;
+}
+
+std::string seconds_or_dash(const std::optional<double>& s) { return s ? fmt::format("{:.3f}", *s) : "-"; }
+
+void set_log_level(bool quiet) { logger().set_level(quiet ? spdlog::level::warn : spdlog::level::info); }
+
+int run_convergence_command() {
+  check_scene_file(g_conv.scene);
+  const auto specs = with_prefix("--solvers", [] { return sim::parse_solver_list(g_conv.solvers); });
+  if (g_conv.step < 1) throw_input_error("--step: must be at least 1 (got {})", g_conv.step);
+  if (!(g_conv.budget > 0.0) || !std::isfinite(g_conv.budget))
+    throw_input_error("--budget: must be a positive number of seconds (got {})", g_conv.budget);
+  if (g_conv.max_iters < 1) throw_input_error("--max-iters: must be at least 1 (got {})", g_conv.max_iters);
+  if (g_conv.threads < 0) throw_input_error("--threads: must be non-negative (got {})", g_conv.threads);
+  sim::Scene scene = sim::load_scene(g_conv.scene);
+  if (g_conv.vertices_option->count() > 0)
+    scene = with_prefix("--vertices", [&] { return sim::with_vertex_count(std::move(scene), g_conv.vertices); });
+  sim::ConvergenceOptions opt;
+  opt.step = g_conv.step;
+  opt.solvers = specs;
+  opt.budget_seconds = g_conv.budget;
+  opt.max_iters = g_conv.max_iters;
+  opt.threads = g_conv.threads;
+  opt.state_cache = g_conv.state_cache;
+  for (size_t i = 0; i < specs.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (specs[i].label == specs[j].label) throw_input_error("--solvers: \"{}\" is listed twice", specs[i].label);
+  for (const auto& s : specs) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  const fs::path out = g_conv.out;
+  prepare_out_dir(out);
+  set_log_level(g_conv.quiet);
+
+  const sim::ConvergenceResult result = sim::run_convergence(scene, opt);
+  write_file_atomic(out / "convergence.csv", sim::convergence_csv(result));
+  write_file_atomic(out / "convergence.json", sim::to_json(result, opt).dump(2) + "\n");
+
+  std::string table = fmt::format("{}: cloth \"{}\" ({} vertices), step {} (start state {}{})\n", result.scene,
+                                  result.cloth, result.vertices, result.step, result.start_state,
+                                  result.start_state == "simulated" ? " with " + result.warmup_solver : "");
+  for (const auto& r : result.references)
+    table += fmt::format("E* ({}) = {:.12e} by {}: {} iterations, relative gradient {:.1e} ({})\n", r.form, r.energy,
+                         r.solver, r.iterations, r.rel_grad, r.status);
+  size_t width = 6;
+  for (const auto& s : result.summaries) width = std::max(width, s.solver.size());
+  table += fmt::format("{:<{}}  {:<10}  {:>10}  {:>8}  {:>8}  {:>8}  {:>8}  {:>11}  {}\n", "solver", width, "form",
+                       "iterations", "time (s)", "t(1e-2)", "t(1e-3)", "t(1e-4)", "final error", "status");
+  for (const auto& s : result.summaries)
+    table += fmt::format("{:<{}}  {:<10}  {:>10}  {:>8.3f}  {:>8}  {:>8}  {:>8}  {:>11.2e}  {}\n", s.solver, width, s.form,
+                         s.iterations, s.seconds, seconds_or_dash(s.time_to[0]), seconds_or_dash(s.time_to[1]),
+                         seconds_or_dash(s.time_to[2]), s.final_error, s.status);
+  std::fputs(table.c_str(), stdout);
+  std::fflush(stdout);
+
+  const std::string title = fmt::format("{}, {} vertices, step {}", fs::path(result.scene).filename().string(),
+                                        result.vertices, result.step);
+  make_plot(embedded::plot_convergence_py, "plot_convergence.py", out / "convergence.csv", out / "convergence.png", title);
+  std::printf("wrote %s: convergence.csv, convergence.json, convergence.png\n", out.string().c_str());
+  return 0;
+}
+
+int run_scalability_command() {
+  check_scene_file(g_scal.scene);
+  sim::ScalabilityOptions opt;
+  opt.vertices = parse_vertex_list(g_scal.vertices);
+  opt.solver = with_prefix("--solver", [] { return sim::parse_solver_spec(g_scal.solver); });
+  opt.steps = g_scal.steps;
+  opt.warmup = g_scal.warmup;
+  opt.rel_grad = g_scal.rel_grad;
+  opt.threads = g_scal.threads;
+  if (opt.steps < 1) throw_input_error("--steps: must be at least 1 (got {})", opt.steps);
+  if (opt.warmup < 0) throw_input_error("--warmup: must be non-negative (got {})", opt.warmup);
+  if (!(opt.rel_grad > 0.0 && opt.rel_grad < 1.0)) throw_input_error("--rel-grad: must be in (0, 1) (got {})", opt.rel_grad);
+  if (opt.threads < 0) throw_input_error("--threads: must be non-negative (got {})", opt.threads);
+  with_prefix("--solver", [&] { return sim::check_solver_spec(opt.solver); });
+  const sim::Scene scene = sim::load_scene(g_scal.scene);
+  for (Index n : opt.vertices) with_prefix("--vertices", [&] { return sim::with_vertex_count(scene, n); });
+  const fs::path out = g_scal.out;
+  prepare_out_dir(out);
+  set_log_level(g_scal.quiet);
+
+  const auto rows = sim::run_scalability(scene, opt);
+  write_file_atomic(out / "scalability.csv", sim::scalability_csv(rows, opt));
+  std::string table = fmt::format("{}: {}, {} steps after {} warm-up steps, relative gradient {:g}, {} threads\n",
+                                  scene.file, opt.solver.label, opt.steps, opt.warmup, opt.rel_grad,
+                                  opt.threads > 0 ? opt.threads : num_threads());
+  table += fmt::format("{:>9}  {:>10}  {:>15}  {:>16}  {:>11}\n", "vertices", "ms/step", "iterations/step",
+                       "solve ms/step", "unconverged");
+  for (const auto& r : rows)
+    table += fmt::format("{:>9}  {:>10.1f}  {:>15.2f}  {:>16.1f}  {:>11}\n", r.vertices, r.ms_per_step,
+                         r.iterations_per_step, r.solve_ms_per_step, r.unconverged_steps);
+  std::fputs(table.c_str(), stdout);
+  std::fflush(stdout);
+  const std::string title = fmt::format("{}, {}", fs::path(scene.file).filename().string(), opt.solver.label);
+  make_plot(embedded::plot_scalability_py, "plot_scalability.py", out / "scalability.csv", out / "scalability.png", title);
+  std::printf("wrote %s: scalability.csv, scalability.png\n", out.string().c_str());
+  return 0;
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  auto* bench = app.add_subcommand("bench", "Solver benchmarks: convergence on one frozen step, scalability with size");
+  bench->require_subcommand(1);
+
+  auto* conv = bench->add_subcommand(
+      "convergence", "Relative energy error against time of several solvers on the same frozen step (Wang 2018, Fig. 4)");
+  conv->add_option("scene", g_conv.scene, "Scene file (JSON)")->required();
+  conv->add_option("--step", g_conv.step, "K: benchmark the scene's K-th step (K - 1 steps are simulated first)")->required();
+  conv->add_option("--solvers", g_conv.solvers,
+                   "Comma-separated solvers, each NAME or NAME@key=value@... (e.g. newton,newton@linear_solver=pcg-mg)")
+      ->required();
+  conv->add_option("--out,-o", g_conv.out, "Output folder (created if missing)")->required();
+  conv->add_option("--budget", g_conv.budget, "Wall-time budget per solver, seconds")->default_val(10.0);
+  conv->add_option("--max-iters", g_conv.max_iters, "Iteration cap per solver")->default_val(10000);
+  conv->add_option("--threads,-j", g_conv.threads, "Worker threads (default: the scene's)");
+  g_conv.vertices_option = conv->add_option("--vertices", g_conv.vertices, "Target vertex count of every generated cloth");
+  conv->add_option("--state-cache", g_conv.state_cache,
+                   "File caching the state at the start of step K (reused when the scene, vertex count and K match)");
+  conv->add_flag("--quiet,-q", g_conv.quiet, "No progress log");
+
+  auto* scal = bench->add_subcommand("scalability", "Wall time per step of one solver against the cloth's vertex count");
+  scal->add_option("scene", g_scal.scene, "Scene file (JSON)")->required();
+  scal->add_option("--vertices", g_scal.vertices, "Comma-separated target vertex counts (every generated cloth)")->required();
+  scal->add_option("--solver", g_scal.solver, "Solver, NAME or NAME@key=value@...")->required();
+  scal->add_option("--out,-o", g_scal.out, "Output folder (created if missing)")->required();
+  scal->add_option("--steps", g_scal.steps, "Measured steps per size")->default_val(3);
+  scal->add_option("--warmup", g_scal.warmup, "Steps simulated before the measurement")->default_val(1);
+  scal->add_option("--rel-grad", g_scal.rel_grad, "Stop each step at this relative gradient norm")->default_val(1e-2);
+  scal->add_option("--threads,-j", g_scal.threads, "Worker threads (default: the scene's)");
+  scal->add_flag("--quiet,-q", g_scal.quiet, "No progress log");
+}
+
+int run_bench_command(CLI::App& bench) {
+  if (bench.got_subcommand("convergence")) return run_convergence_command();
+  if (bench.got_subcommand("scalability")) return run_scalability_command();
+  return 1;
+}
+
+}  // namespace mgcloth::cli

@@ -1,0 +1,500 @@
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/sim/convergence.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+namespace mgcloth::sim {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+/// The timed runs stop on the budget or the iteration cap, not on the gradient: a relative gradient this small is
+/// below what double precision resolves in the energy.
+constexpr double kTimedRelGrad = 1e-14;
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> parts;
+  std::string part;
+  std::istringstream in(s);
+  while (std::getline(in, part, sep)) parts.push_back(part);
+  if (s.empty() || s.back() == sep) parts.emplace_back();
+  return parts;
+}
+
+/// A JSON scalar, or the text itself as an unquoted string.
+Json parse_scalar(const std::string& spec, const std::string& key, const std::string& text) {
+  Json v = Json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (v.is_discarded()) return text;
+  if (v.is_array() || v.is_object())
+    throw_input_error("solver \"{}\": {}: expected a number, true/false or a string, got {}", spec, key, text);
+  return v;
+}
+
+bool has_solver(const std::string& name) {
+  const auto names = solvers::solver_names();
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+/// The solver that simulates the steps before the benchmarked one and gives the elastic form's E*.
+SolverSpec elastic_reference() {
+  if (has_solver("newton-direct")) return parse_solver_spec("newton-direct");
+  return parse_solver_spec("newton@linear_solver=cholmod");
+}
+
+std::string form_name(bool projective) { return projective ? "projective" : "elastic"; }
+
+/// The scene with `spec` as its solver (its stop criteria kept) and the options' thread count.
+Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
+  scene.solver.name = spec.config.name;
+  scene.solver.params = spec.config.params;
+  if (threads > 0) scene.threads = threads;
+  return scene;
+}
+
+/// A simulator of `scene` with `spec` as its solver, in `state`.
+std::unique_ptr<Simulator> simulator_at(const Scene& scene, const SolverSpec& spec, int threads, const SimState& state) {
+  auto sim = std::make_unique<Simulator>(with_solver(scene, spec, threads));
+  sim->set_state(state.frame, state.step, state.x, state.v);
+  return sim;
+}
+
+double rel_grad_of(const solvers::SolveReport& r) {
+  return r.initial_grad_norm > 0.0 ? r.grad_norm / r.initial_grad_norm : 0.0;
+}
+
+/// E* of one form: the reference solver from x0 to opt.reference_rel_grad.
+ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0) {
+  auto sim = simulator_at(scene, spec, opt.threads, state);
+  VecX start;
+  solvers::Problem problem = sim->prepare_problem(0, start);
+  VecX x = x0;
+  ReferenceEnergy ref;
+  ref.form = form_name(projective);
+  ref.solver = spec.label;
+  ref.initial_energy = problem.objective->value(x0);
+  solvers::Stop stop;
+  stop.rel_grad = opt.reference_rel_grad;
+  stop.max_iters = max_iters;
+  stop.max_seconds = opt.reference_max_seconds;
+  Timer timer;
+  const solvers::SolveReport r = sim->solver(0).minimize(problem, x, stop, nullptr);
+  ref.seconds = timer.seconds();
+  ref.energy = problem.objective->value(x);
+  ref.iterations = r.iterations;
+  ref.rel_grad = rel_grad_of(r);
+  ref.status = r.status;
+  ref.reached = ref.rel_grad <= opt.reference_rel_grad;
+  if (!ref.reached)
+    logger().warn("E* of the {} form: {} stopped ({}) at relative gradient {:.2e} after {} iterations, not {:.0e}; "
+                  "using its final energy",
+                  ref.form, spec.label, r.status, ref.rel_grad, r.iterations, opt.reference_rel_grad);
+  logger().info("E* ({} form) = {:.15e} by {} in {} iterations ({:.2f} s, relative gradient {:.1e}, {})", ref.form,
+                ref.energy, spec.label, ref.iterations, ref.seconds, ref.rel_grad, r.status);
+  return ref;
+}
+
+void check_options(const ConvergenceOptions& opt) {
+  if (opt.step < 1) throw_input_error("step: must be at least 1 (got {})", opt.step);
+  if (opt.solvers.empty()) throw_input_error("solvers: the list is empty");
+  if (!(opt.budget_seconds > 0.0)) throw_input_error("budget: must be a positive number of seconds (got {})", opt.budget_seconds);
+  if (opt.max_iters < 1) throw_input_error("max iterations: must be at least 1 (got {})", opt.max_iters);
+  if (opt.threads < 0) throw_input_error("threads: must be non-negative (got {})", opt.threads);
+  for (size_t i = 0; i < opt.solvers.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (opt.solvers[i].label == opt.solvers[j].label) throw_input_error("solvers: \"{}\" is listed twice", opt.solvers[i].label);
+}
+
+}  // namespace
+
+SolverSpec parse_solver_spec(const std::string& text) {
+  SolverSpec s;
+  s.label = trim(text);
+  const std::vector<std::string> parts = split(s.label, '@');
+  s.config.name = parts[0];
+  if (s.config.name.empty()) throw_input_error("solver \"{}\": empty solver name", s.label);
+  for (size_t i = 1; i < parts.size(); ++i) {
+    const std::string& p = parts[i];
+    const auto eq = p.find('=');
+    if (eq == std::string::npos) throw_input_error("solver \"{}\": \"{}\" is not key=value", s.label, p);
+    const std::string key = p.substr(0, eq), value = p.substr(eq + 1);
+    if (key.empty()) throw_input_error("solver \"{}\": \"{}\" has no key", s.label, p);
+    if (value.empty()) throw_input_error("solver \"{}\": {}: empty value", s.label, key);
+    if (s.config.params.contains(key)) throw_input_error("solver \"{}\": {} is given twice", s.label, key);
+    s.config.params[key] = parse_scalar(s.label, key, value);
+  }
+  return s;
+}
+
+std::vector<SolverSpec> parse_solver_list(const std::string& list) {
+  if (trim(list).empty()) throw_input_error("the solver list is empty");
+  std::vector<SolverSpec> specs;
+  for (const std::string& item : split(list, ',')) {
+    if (trim(item).empty()) throw_input_error("solver list \"{}\": empty entry", list);
+    specs.push_back(parse_solver_spec(item));
+  }
+  return specs;
+}
+
+bool check_solver_spec(const SolverSpec& spec) {
+  return solvers::make_solver(spec.config, fmt::format("solver \"{}\"", spec.label), spec.config.name)->projective();
+}
+
+double relative_energy_error(double energy, double initial_energy, double min_energy) {
+  const double range = initial_energy - min_energy;
+  if (!(range > 0.0)) return kNaN;
+  return (energy - min_energy) / range;
+}
+
+Scene with_vertex_count(Scene scene, Index vertices) {
+  if (vertices < 4 || vertices > 5'000'000)
+    throw_input_error("vertex count must be within [4, 5000000] (got {})", vertices);
+  for (size_t i = 0; i < scene.cloths.size(); ++i) {
+    MeshSource& m = scene.cloths[i].mesh;
+    if (!m.file.empty())
+      throw_input_error("{}: cloths[{}] (\"{}\"): the mesh is read from {}; only generated meshes can be given a vertex count",
+                        scene.file, i, scene.cloths[i].name, m.file);
+    if (m.generator == "tube") {
+      if (vertices < 8) throw_input_error("vertex count: a tube needs at least 8 vertices (got {})", vertices);
+      m.tube.target_vertices = vertices;
+    } else {
+      m.rectangle.target_vertices = vertices;
+    }
+  }
+  return scene;
+}
+
+SimState simulator_state(const Simulator& sim) {
+  SimState st;
+  st.step = sim.step_count();
+  st.frame = static_cast<int>(st.step / sim.scene().substeps);
+  for (const auto& c : sim.cloths()) {
+    st.x.push_back(c->x());
+    st.v.push_back(c->v());
+  }
+  return st;
+}
+
+Json state_cache_key(const Scene& scene) {
+  Json s = to_json(scene);
+  for (const char* unrelated : {"frames", "threads", "output"}) s.erase(unrelated);
+  for (auto& c : s["cloths"])
+    if (c["mesh"].contains("file")) {
+      std::error_code ec;
+      const fs::path f = c["mesh"]["file"].get<std::string>();
+      c["mesh"]["file_size"] = static_cast<long long>(fs::file_size(f, ec));
+      c["mesh"]["file_time"] = static_cast<long long>(fs::last_write_time(f, ec).time_since_epoch().count());
+    }
+  return s;
+}
+
+std::optional<SimState> load_state_cache(const fs::path& file, const Json& key) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::string header;
+  if (!std::getline(in, header)) return std::nullopt;
+  const Json h = Json::parse(header, nullptr, false);
+  if (h.is_discarded() || !h.is_object() || h.value("format", "") != "mgcloth state cache 1" || !h.contains("key") ||
+      h["key"] != key)
+    return std::nullopt;
+  SimState st;
+  try {
+    st.frame = h.at("frame").get<int>();
+    st.step = h.at("step").get<long>();
+    for (const auto& n : h.at("dofs")) {
+      const auto dofs = n.get<Index>();
+      for (auto* vectors : {&st.x, &st.v}) {
+        VecX v(dofs);
+        in.read(reinterpret_cast<char*>(v.data()), static_cast<std::streamsize>(sizeof(double) * dofs));
+        vectors->push_back(std::move(v));
+      }
+    }
+  } catch (const Json::exception&) {
+    return std::nullopt;
+  }
+  if (!in || in.peek() != std::char_traits<char>::eof()) return std::nullopt;
+  return st;
+}
+
+void save_state_cache(const fs::path& file, const Json& key, const SimState& state) {
+  Json dofs = Json::array();
+  for (const auto& x : state.x) dofs.push_back(x.size());
+  const Json header = {{"format", "mgcloth state cache 1"}, {"key", key}, {"frame", state.frame}, {"step", state.step},
+                       {"dofs", dofs}};
+  write_file_atomic(
+      file,
+      [&](std::ostream& out) {
+        out << header.dump() << '\n';
+        for (size_t c = 0; c < state.x.size(); ++c)
+          for (const VecX* v : {&state.x[c], &state.v[c]})
+            out.write(reinterpret_cast<const char*>(v->data()), static_cast<std::streamsize>(sizeof(double) * v->size()));
+      },
+      /*binary=*/true);
+}
+
+std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, const std::string& solver, double level) {
+  for (const auto& r : rows)
+    if (r.solver == solver && r.rel_energy_error <= level) return r.wall_s;
+  return std::nullopt;
+}
+
+ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& opt) {
+  check_options(opt);
+  if (scene.cloths.empty()) throw_input_error("{}: the scene has no cloths", scene.file);
+  // Every spec is built once now, so that a typo fails before anything is simulated.
+  std::vector<bool> projective;
+  for (const auto& spec : opt.solvers) projective.push_back(check_solver_spec(spec));
+  const SolverSpec elastic = elastic_reference();
+  const bool any_projective = std::find(projective.begin(), projective.end(), true) != projective.end();
+  if (any_projective && !has_solver("pd-direct"))
+    throw_input_error("the Projective Dynamics solvers need \"pd-direct\" for their E*, and this build has no such "
+                      "solver (available: {})", fmt::join(solvers::solver_names(), ", "));
+  if (opt.threads > 0) set_num_threads(opt.threads);
+
+  ConvergenceResult result;
+  result.scene = scene.file;
+  result.cloth = scene.cloths[0].name;
+  result.step = opt.step;
+  result.warmup_solver = elastic.label;
+  if (scene.cloths.size() > 1)
+    logger().info("{}: {} cloths; the benchmark freezes the objective of cloth 0 (\"{}\") only", scene.file,
+                  scene.cloths.size(), result.cloth);
+
+  // The state at the start of step K: simulated with the reference solver and the scene's stop criteria, or cached.
+  const long steps_before = opt.step - 1;
+  const Json key = {{"purpose", "start of a benchmarked step"},
+                    {"scene", state_cache_key(with_solver(scene, elastic, 0))},
+                    {"steps", steps_before}};
+  std::optional<SimState> state;
+  if (!opt.state_cache.empty()) state = load_state_cache(opt.state_cache, key);
+  if (state) {
+    result.start_state = "cache";
+    logger().info("state at the start of step {} read from {}", opt.step, opt.state_cache);
+  } else {
+    result.start_state = "simulated";
+    Simulator sim(with_solver(scene, elastic, opt.threads));
+    Timer timer;
+    while (sim.step_count() < steps_before) {
+      sim.step();
+      logger().info("step {}/{} simulated with {} ({:.1f} s)", sim.step_count(), steps_before, elastic.label, timer.seconds());
+    }
+    state = simulator_state(sim);
+    if (!opt.state_cache.empty()) {
+      save_state_cache(opt.state_cache, key, *state);
+      logger().info("state at the start of step {} cached in {}", opt.step, opt.state_cache);
+    }
+  }
+
+  // The frozen problem's start point, from a simulator of the elastic form.
+  VecX x0;
+  {
+    auto sim = simulator_at(scene, elastic, opt.threads, *state);
+    (void)sim->prepare_problem(0, x0);
+    result.vertices = static_cast<Index>(x0.size() / 3);
+  }
+  logger().info("{}: step {} of cloth \"{}\" ({} vertices)", scene.file, opt.step, result.cloth, result.vertices);
+
+  // E* per energy form.
+  result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0));
+  if (any_projective)
+    result.references.push_back(reference_energy(scene, parse_solver_spec("pd-direct"), true, opt.pd_reference_max_iters,
+                                                 opt, *state, x0));
+  const auto reference_of = [&](bool pd) -> const ReferenceEnergy& { return result.references[pd ? 1 : 0]; };
+
+  for (size_t i = 0; i < opt.solvers.size(); ++i) {
+    const SolverSpec& spec = opt.solvers[i];
+    const ReferenceEnergy& ref = reference_of(projective[i]);
+    auto sim = simulator_at(scene, spec, opt.threads, *state);
+    VecX own_start;
+    solvers::Problem problem = sim->prepare_problem(0, own_start);
+    if (own_start.size() != x0.size())
+      throw_error("{}: its simulator has {} dofs, the reference's {}", spec.label, own_start.size(), x0.size());
+    if ((own_start - x0).cwiseAbs().maxCoeff() > 1e-12)
+      logger().warn("{}: its simulator predicts a different start point; every solver starts from the same x0", spec.label);
+    solvers::NonlinearSolver& solver = sim->solver(0);
+
+    // Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
+    // hierarchies), so the timed run measures what every step costs.
+    Timer timer;
+    {
+      VecX x = x0;
+      solvers::Stop stop;
+      stop.rel_grad = kTimedRelGrad;
+      stop.max_iters = 1;
+      solver.minimize(problem, x, stop, nullptr);
+    }
+    SolverSummary summary;
+    summary.solver = spec.label;
+    summary.form = ref.form;
+    summary.warmup_seconds = timer.seconds();
+
+    VecX x = x0;
+    solvers::Stop stop;
+    stop.rel_grad = kTimedRelGrad;
+    stop.max_iters = opt.max_iters;
+    stop.max_seconds = opt.budget_seconds;
+    solvers::Trace trace;
+    const solvers::SolveReport report = solver.minimize(problem, x, stop, &trace);
+    if (trace.empty()) throw_error("{}: the solver recorded no trace", spec.label);
+    const double e0 = trace.front().energy;
+    for (const auto& t : trace)
+      result.rows.push_back({spec.label, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
+                             relative_energy_error(t.energy, e0, ref.energy)});
+    const double last = result.rows.back().rel_energy_error;
+    if (last < -1e-8)
+      logger().warn("{}: final energy below E* of the {} form by {:.1e} of E_0 - E* (a different minimum?)", spec.label,
+                    ref.form, -last);
+    summary.iterations = report.iterations;
+    summary.final_error = last;
+    summary.final_rel_grad = rel_grad_of(report);
+    summary.seconds = report.wall_ms / 1e3;
+    summary.status = report.status;
+    for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
+    logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
+                  summary.seconds, summary.status, summary.final_error);
+    result.summaries.push_back(summary);
+  }
+  return result;
+}
+
+std::string convergence_csv(const ConvergenceResult& result) {
+  std::string out = "solver,iteration,wall_s,energy,grad_norm,rel_energy_error\n";
+  for (const auto& r : result.rows)
+    out += fmt::format("{},{},{:.9g},{:.17g},{:.17g},{:.17g}\n", r.solver, r.iteration, r.wall_s, r.energy, r.grad_norm,
+                       r.rel_energy_error);
+  return out;
+}
+
+namespace {
+Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+Json number_or_null(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
+std::string level_key(double level) { return fmt::format("{:.0e}", level); }
+}  // namespace
+
+Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
+  Json refs = Json::array();
+  for (const auto& r : result.references)
+    refs.push_back({{"form", r.form},
+                    {"energy", r.energy},
+                    {"initial_energy", r.initial_energy},
+                    {"solver", r.solver},
+                    {"how", fmt::format("{} from x0 to relative gradient {:.0e}{}", r.solver, opt.reference_rel_grad,
+                                        r.reached ? "" : " (not reached: its final energy is used)")},
+                    {"iterations", r.iterations},
+                    {"rel_grad", r.rel_grad},
+                    {"status", r.status},
+                    {"reached", r.reached},
+                    {"seconds", r.seconds}});
+  Json solvers = Json::array();
+  for (const auto& s : result.summaries) {
+    Json time_to = Json::object();
+    for (size_t l = 0; l < kErrorLevels.size(); ++l) time_to[level_key(kErrorLevels[l])] = number_or_null(s.time_to[l]);
+    solvers.push_back({{"solver", s.solver},
+                       {"form", s.form},
+                       {"iterations", s.iterations},
+                       {"seconds", s.seconds},
+                       {"warmup_seconds", s.warmup_seconds},
+                       {"status", s.status},
+                       {"final_error", number_or_null(s.final_error)},
+                       {"final_rel_grad", s.final_rel_grad},
+                       {"time_to", time_to}});
+  }
+  Json specs = Json::array();
+  for (const auto& s : opt.solvers) specs.push_back({{"label", s.label}, {"name", s.config.name}, {"params", s.config.params}});
+  return {{"scene", result.scene},
+          {"cloth", result.cloth},
+          {"vertices", result.vertices},
+          {"step", result.step},
+          {"start_state", result.start_state},
+          {"steps_before_by", result.warmup_solver},
+          {"rel_energy_error", "(E_k - E*)/(E_0 - E*), E* of the solver's energy form"},
+          {"timing", "each solver is warmed up by one untimed iteration on a copy of x0 (one-time set-up), then timed"},
+          {"options",
+           {{"step", opt.step},
+            {"budget_seconds", opt.budget_seconds},
+            {"max_iters", opt.max_iters},
+            {"threads", opt.threads > 0 ? opt.threads : num_threads()},
+            {"state_cache", opt.state_cache},
+            {"reference_rel_grad", opt.reference_rel_grad},
+            {"reference_max_iters", opt.reference_max_iters},
+            {"pd_reference_max_iters", opt.pd_reference_max_iters},
+            {"reference_max_seconds", opt.reference_max_seconds},
+            {"solvers", specs}}},
+          {"references", refs},
+          {"solvers", solvers}};
+}
+
+std::vector<ScalabilityRow> run_scalability(const Scene& scene, const ScalabilityOptions& opt) {
+  if (opt.vertices.empty()) throw_input_error("vertices: the list is empty");
+  if (opt.steps < 1) throw_input_error("steps: must be at least 1 (got {})", opt.steps);
+  if (opt.warmup < 0) throw_input_error("warm-up steps: must be non-negative (got {})", opt.warmup);
+  if (!(opt.rel_grad > 0.0 && opt.rel_grad < 1.0)) throw_input_error("relative gradient: must be in (0, 1) (got {})", opt.rel_grad);
+  if (opt.threads < 0) throw_input_error("threads: must be non-negative (got {})", opt.threads);
+  (void)check_solver_spec(opt.solver);
+  for (Index n : opt.vertices) (void)with_vertex_count(scene, n);  // every count is checked before the first run
+  if (opt.threads > 0) set_num_threads(opt.threads);
+
+  std::vector<ScalabilityRow> rows;
+  for (Index n : opt.vertices) {
+    Scene s = with_solver(with_vertex_count(scene, n), opt.solver, opt.threads);
+    s.solver.stop.rel_grad = opt.rel_grad;
+    s.solver.stop.abs_grad = 0.0;
+    ScalabilityRow row;
+    row.target_vertices = n;
+    row.solver = opt.solver.label;
+    Timer timer;
+    Simulator sim(std::move(s));
+    row.setup_ms = timer.ms();
+    for (const auto& c : sim.cloths()) row.vertices += c->mesh().num_vertices();
+    for (int k = 0; k < opt.warmup; ++k) sim.step();
+    long iterations = 0;
+    double step_ms = 0.0, solve_ms = 0.0;
+    for (int k = 0; k < opt.steps; ++k) {
+      timer.reset();
+      const auto stats = sim.step();
+      step_ms += timer.ms();
+      bool converged = true;
+      for (const auto& st : stats) {
+        iterations += st.report.iterations;
+        solve_ms += st.report.wall_ms;
+        converged = converged && st.report.converged;
+      }
+      row.unconverged_steps += converged ? 0 : 1;
+    }
+    row.ms_per_step = step_ms / opt.steps;
+    row.solve_ms_per_step = solve_ms / opt.steps;
+    row.iterations_per_step = static_cast<double>(iterations) / opt.steps;
+    logger().info("{} vertices: {:.1f} ms per step, {:.1f} iterations per step ({})", row.vertices, row.ms_per_step,
+                  row.iterations_per_step, row.solver);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const ScalabilityOptions& opt) {
+  std::string out = "vertices,solver,ms_per_step,iterations_per_step,solve_ms_per_step,unconverged_steps,target_vertices,"
+                    "steps,warmup,rel_grad,threads,setup_ms\n";
+  const int threads = opt.threads > 0 ? opt.threads : num_threads();
+  for (const auto& r : rows)
+    out += fmt::format("{},{},{:.6g},{:.6g},{:.6g},{},{},{},{},{:g},{},{:.6g}\n", r.vertices, r.solver, r.ms_per_step,
+                       r.iterations_per_step, r.solve_ms_per_step, r.unconverged_steps, r.target_vertices, opt.steps,
+                       opt.warmup, opt.rel_grad, threads, r.setup_ms);
+  return out;
+}
+
+}  // namespace mgcloth::sim

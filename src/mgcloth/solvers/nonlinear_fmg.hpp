@@ -1,0 +1,104 @@
+#pragma once
+#include <mgcloth/solvers/line_search.hpp>
+#include <mgcloth/solvers/linear_multigrid.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+#include <memory>
+
+namespace mgcloth::solvers {
+
+/// When the system matrix A_0 (the PSD-projected Hessian, or the constant Projective Dynamics matrix) and its
+/// Galerkin hierarchy are recomputed (Wang 2018 §4.2.1, Fig. 6).
+enum class MatrixUpdate {
+  Direction,  ///< before every search direction (every level of every V-cycle)
+  Cycle,      ///< once per FMG cycle (the paper's choice)
+  Step,       ///< once per time step (per minimize call)
+  Constant,   ///< once; later steps reassemble it and refactor only if it changed (Projective Dynamics)
+};
+std::string to_string(MatrixUpdate u);
+MatrixUpdate matrix_update_from_string(const std::string& s);  ///< throws InputError
+std::vector<std::string> matrix_update_names();
+
+struct FmgParams {
+  /// Symmetric Gauss-Seidel sweeps per smoothing (pre_smooth on the way down, post_smooth on the way up), Chebyshev
+  /// acceleration of the sweeps, used both for the nonlinear levels and inside the linear sub-V-cycles.
+  MultigridParams multigrid{3, 3, false, true};
+  MatrixUpdate matrix_update = MatrixUpdate::Cycle;
+  /// Levels, counted from the finest, on which every smoothed correction is its own search direction and the
+  /// nonlinear residual is recomputed on the finest level after it (Wang 2018 §4.2.2, Fig. 7); below them the
+  /// rest of each V-cycle runs as linear multigrid and gives one direction (Theorem 4.2). 0: every V-cycle is one
+  /// linear direction; >= the number of levels: every level is nonlinear.
+  int residual_levels = 2;
+  /// Only the single finest level's smoother (no coarse levels): nonlinear multi-color Gauss-Seidel, the
+  /// "Gauss-Seidel with Chebyshev acceleration" baseline of Fig. 4 and of Projective Dynamics (Wang 2015,
+  /// Fratarcangeli 2016). Then one iteration is one smoothing of pre_smooth sweeps.
+  bool single_level = false;
+  /// Backtracking line search on the true objective for every direction (§4.2.3); off for Projective Dynamics
+  /// (§4.4), where the local step keeps the iteration stable.
+  bool line_search = true;
+  LineSearchParams line_search_params;
+  /// Adaptive smoother (§4.3): a smoothing skips the vertices whose restricted residual is below
+  /// adaptive_threshold × the RMS residual of that level. 0 disables (exactly the plain smoother).
+  double adaptive_threshold = 0.0;
+  /// Chebyshev weights on the successive corrections, x⁺ = ω (x + c − x⁻) + x⁻ (Wang 2015; §4.4 for the FMG);
+  /// the spectral-radius estimate ρ of the plain iteration, 0 disables. With a line search, a weighted update that
+  /// does not decrease the energy restarts the weights and falls back to the line-searched direction.
+  double chebyshev_rho = 0.0;
+  int chebyshev_delay = 1;  ///< corrections taken unweighted before the weights start
+  /// Minimize the quadratic model over the new direction and the previous step together (a 2D subspace, as a
+  /// flexible preconditioned CG would), then line-search that combination. Beyond the paper; off = §4.2.3 exactly.
+  bool momentum = true;
+  bool project_psd = true;  ///< per-element PSD projection of the Hessian
+  bool projective = false;  ///< minimize the Projective Dynamics energy form
+};
+
+/// The nonlinear full multigrid of Wang et al. 2018 (§4.2, Fig. 5). Every smoothed correction on level h,
+/// c_h = Ã_h⁻¹ I_0^h r_0, prolonged to the finest level, is a search direction for the finest-level objective:
+/// it is scaled by a backtracking line search on E, x is updated, the contact projection applied (§4.5), and the
+/// residual r_0 = −∇E recomputed before the next level's smoothing. A_h = I_0^hᵀ A_0 I_0^h are Galerkin operators of
+/// one finest-level matrix, updated per matrix_update. Small and large V-cycles are interleaved: each FMG cycle runs
+/// one V-cycle starting from every level, coarsest first (§4.2.1). Symmetric (Chebyshev-)Gauss-Seidel keeps every
+/// direction a descent direction (Theorems 4.1, 4.2). One iteration = one FMG cycle.
+class NonlinearFMG final : public NonlinearSolver {
+ public:
+  explicit NonlinearFMG(FmgParams params = {}, std::string name = "fmg");
+  std::string name() const override { return m_name; }
+  bool needs_hierarchy() const override { return !m_params.single_level; }
+  bool projective() const override { return m_params.projective; }
+  SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  const FmgParams& params() const { return m_params; }
+
+  /// What the last minimize() did and where its time went.
+  struct Stats {
+    int cycles = 0;
+    long directions = 0;         ///< search directions tried
+    long rejected = 0;           ///< directions the line search could not accept
+    long energy_evals = 0;       ///< line-search energy evaluations
+    long matrix_updates = 0;
+    double rows_relaxed = 0.0;   ///< block-row relaxations done by the smoothers of nonlinear levels
+    double rows_skipped = 0.0;   ///< and skipped by the adaptive mask
+    double assembly_ms = 0.0, galerkin_ms = 0.0, smoothing_ms = 0.0, linear_ms = 0.0, transfer_ms = 0.0,
+           line_search_ms = 0.0, gradient_ms = 0.0, model_ms = 0.0;
+  };
+  const Stats& stats() const { return m_stats; }
+
+ private:
+  enum class Move { Smooth, Linear };
+  struct Stage {
+    Index level;
+    Move move;
+    int sweeps;
+  };
+  std::vector<Stage> schedule(Index levels) const;
+
+  FmgParams m_params;
+  std::string m_name;
+  std::unique_ptr<LinearMultigrid> m_mg;
+  std::vector<const hierarchy::TransferTable*> m_mg_for;
+  linalg::BlockMatrix3 m_A, m_scratch;
+  bool m_have_matrix = false;
+  std::vector<double> m_beta;  ///< per level: accepted step / model step, to start the next line search (§4.2.3)
+  Stats m_stats;
+};
+
+}  // namespace mgcloth::solvers

@@ -1,0 +1,213 @@
+// The benchmark library behind `mgcloth bench`: solver spec strings, the relative energy error, the state cache,
+// and one tiny convergence run.
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/sim/convergence.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <unistd.h>
+
+using namespace mgcloth;
+namespace fs = std::filesystem;
+
+TEST(SolverSpec, NameAlone) {
+  const auto s = sim::parse_solver_spec("newton");
+  EXPECT_EQ(s.label, "newton");
+  EXPECT_EQ(s.config.name, "newton");
+  EXPECT_TRUE(s.config.params.is_object());
+  EXPECT_TRUE(s.config.params.empty());
+}
+
+TEST(SolverSpec, ParametersAreJsonScalarsOrUnquotedStrings) {
+  const std::string spec = "fmg@hessian_update=step@residual_levels=2@tol=1e-3@psd=false@name=\"x\"@raw=\"y";
+  const auto s = sim::parse_solver_spec(spec);
+  EXPECT_EQ(s.label, spec);
+  EXPECT_EQ(s.config.name, "fmg");
+  EXPECT_EQ(s.config.params.at("hessian_update"), "step");
+  EXPECT_TRUE(s.config.params.at("residual_levels").is_number_integer());
+  EXPECT_EQ(s.config.params.at("residual_levels"), 2);
+  EXPECT_DOUBLE_EQ(s.config.params.at("tol").get<double>(), 1e-3);
+  EXPECT_EQ(s.config.params.at("psd"), false);
+  EXPECT_EQ(s.config.params.at("name"), "x");
+  EXPECT_EQ(s.config.params.at("raw"), "\"y");  // not valid JSON: taken as it is
+  EXPECT_EQ(sim::parse_solver_spec("newton@linear_solver=\"cholmod\"").config.params.at("linear_solver"), "cholmod");
+  EXPECT_EQ(sim::parse_solver_spec("newton@linear_solver=pcg-jacobi").config.params.at("linear_solver"), "pcg-jacobi");
+}
+
+TEST(SolverSpec, ListsSplitOnCommasAndKeepEachSpecAsItsLabel) {
+  const auto list = sim::parse_solver_list("newton, newton@linear_solver=pcg-mg ,fmg");
+  ASSERT_EQ(list.size(), 3u);
+  EXPECT_EQ(list[0].label, "newton");
+  EXPECT_EQ(list[1].label, "newton@linear_solver=pcg-mg");
+  EXPECT_EQ(list[1].config.params.at("linear_solver"), "pcg-mg");
+  EXPECT_EQ(list[2].config.name, "fmg");
+}
+
+TEST(SolverSpec, MalformedSpecsAreInputErrorsNamingTheSpec) {
+  for (const char* bad : {"", "@a=1", "newton@", "newton@=1", "newton@a", "newton@a=", "newton@a=1@a=2", "newton@a=[1]",
+                          "newton@a={}"}) {
+    try {
+      (void)sim::parse_solver_spec(bad);
+      ADD_FAILURE() << "accepted \"" << bad << "\"";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("\"") + bad + "\""), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(sim::parse_solver_list(""), InputError);
+  EXPECT_THROW(sim::parse_solver_list("newton,,fmg"), InputError);
+  EXPECT_THROW(sim::parse_solver_list("newton,"), InputError);
+}
+
+TEST(SolverSpec, CheckUsesTheFactorysMessages) {
+  EXPECT_FALSE(sim::check_solver_spec(sim::parse_solver_spec("newton@linear_solver=cholmod")));
+  const auto message = [](const std::string& spec) {
+    try {
+      (void)sim::check_solver_spec(sim::parse_solver_spec(spec));
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_NE(message("newtn").find("unknown solver \"newtn\""), std::string::npos) << message("newtn");
+  EXPECT_NE(message("newton@linear_slver=cholmod").find("linear_slver: unknown key"), std::string::npos)
+      << message("newton@linear_slver=cholmod");
+  EXPECT_NE(message("newton@linear_solver=nope").find("nope"), std::string::npos);
+}
+
+TEST(RelativeEnergyError, IsOneAtTheStartAndZeroAtTheMinimum) {
+  for (const auto& [e0, emin] : {std::pair{1.440284171670333, 1.4323657962256815}, std::pair{-3.0e5, -3.1e5},
+                                std::pair{1e-300, -1e-300}, std::pair{0.1 + 0.2, 0.3 - 1e-17}})
+    EXPECT_EQ(sim::relative_energy_error(e0, e0, emin), 1.0) << e0 << " " << emin;
+  EXPECT_EQ(sim::relative_energy_error(2.0, 3.0, 2.0), 0.0);
+  EXPECT_DOUBLE_EQ(sim::relative_energy_error(2.5, 3.0, 2.0), 0.5);
+  EXPECT_LT(sim::relative_energy_error(1.9, 3.0, 2.0), 0.0);  // below E*: negative, kept as is
+  EXPECT_TRUE(std::isnan(sim::relative_energy_error(1.0, 2.0, 2.0)));  // E_0 = E*: nothing to measure
+  EXPECT_TRUE(std::isnan(sim::relative_energy_error(1.0, 1.0, 2.0)));
+}
+
+TEST(RelativeEnergyError, TimeToALevelIsTheFirstRowReachingIt) {
+  const std::vector<sim::ConvergenceRow> rows{{"a", 0, 0.0, 3.0, 1.0, 1.0},   {"a", 1, 0.5, 2.1, 1.0, 0.05},
+                                              {"b", 0, 0.0, 3.0, 1.0, 1.0},   {"b", 1, 0.2, 2.0, 1.0, 1e-5},
+                                              {"a", 2, 0.9, 2.0, 1.0, 1e-3}, {"a", 3, 1.2, 2.0, 1.0, 2e-3}};
+  EXPECT_EQ(sim::time_to_error(rows, "a", 1e-2).value_or(-1.0), 0.9);
+  EXPECT_EQ(sim::time_to_error(rows, "a", 1e-3).value_or(-1.0), 0.9);
+  EXPECT_FALSE(sim::time_to_error(rows, "a", 1e-4));
+  EXPECT_EQ(sim::time_to_error(rows, "b", 1e-4).value_or(-1.0), 0.2);
+  EXPECT_FALSE(sim::time_to_error(rows, "c", 1.0));
+}
+
+namespace {
+sim::Scene tiny_scene(int vertices) {
+  const Json j = parse_json(R"({ "cloths": [ { "name": "sheet", "mesh": { "vertices": 100 },
+      "transform": { "translation": [-0.5, -0.5, 1.0] }, "pins": [ { "points": [[0, 1], [1, 1]] } ] } ],
+      "solver": { "rel_grad": 1e-4 } })", "tiny.json");
+  return sim::with_vertex_count(sim::parse_scene(j, "tiny.json", "."), vertices);
+}
+fs::path temp_file(const std::string& name) {
+  return fs::temp_directory_path() / (name + std::to_string(::getpid()));  // builds may run the suite concurrently
+}
+}  // namespace
+
+TEST(VertexCount, SetsEveryGeneratedMeshAndRejectsFileMeshes) {
+  EXPECT_EQ(tiny_scene(150).cloths[0].mesh.rectangle.target_vertices, 150);
+  sim::Scene s = tiny_scene(150);
+  s.cloths.push_back(s.cloths[0]);
+  s.cloths[1].mesh.generator = "tube";
+  s = sim::with_vertex_count(s, 300);
+  EXPECT_EQ(s.cloths[0].mesh.rectangle.target_vertices, 300);
+  EXPECT_EQ(s.cloths[1].mesh.tube.target_vertices, 300);
+  EXPECT_THROW(sim::with_vertex_count(s, 3), InputError);
+  s.cloths[1].mesh.file = "/some/mesh.obj";
+  EXPECT_THROW(sim::with_vertex_count(s, 300), InputError);
+}
+
+TEST(StateCache, RoundTripsAndIgnoresOtherKeysAndBrokenFiles) {
+  const fs::path file = temp_file("mgcloth_state_cache_test");
+  sim::SimState st;
+  st.frame = 3;
+  st.step = 6;
+  st.x = {VecX::LinSpaced(9, 0.0, 1.0), VecX::Constant(3, 0.25)};
+  st.v = {VecX::Constant(9, -1.5), VecX::LinSpaced(3, 1.0, 2.0)};
+  const Json key = {{"scene", "a"}, {"steps", 6}};
+  EXPECT_FALSE(sim::load_state_cache(file, key));  // missing
+  sim::save_state_cache(file, key, st);
+  const auto back = sim::load_state_cache(file, key);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->frame, 3);
+  EXPECT_EQ(back->step, 6);
+  ASSERT_EQ(back->x.size(), 2u);
+  for (size_t c = 0; c < 2; ++c) {
+    EXPECT_EQ(back->x[c], st.x[c]);
+    EXPECT_EQ(back->v[c], st.v[c]);
+  }
+  EXPECT_FALSE(sim::load_state_cache(file, Json{{"scene", "a"}, {"steps", 5}}));
+  const std::string bytes = read_file(file);
+  write_file_atomic(file, bytes.substr(0, bytes.size() - 8));  // truncated
+  EXPECT_FALSE(sim::load_state_cache(file, key));
+  write_file_atomic(file, "not a cache\n");
+  EXPECT_FALSE(sim::load_state_cache(file, key));
+  fs::remove(file);
+}
+
+TEST(Convergence, TinyStepConvergesFromTheSameStartAndCachesItsState) {
+  const fs::path cache = temp_file("mgcloth_convergence_cache");
+  fs::remove(cache);
+  sim::ConvergenceOptions opt;
+  opt.step = 2;
+  opt.solvers = sim::parse_solver_list("newton,newton@linear_solver=pcg-jacobi");
+  opt.budget_seconds = 5.0;
+  opt.max_iters = 40;
+  opt.threads = 1;
+  opt.state_cache = cache.string();
+  const sim::Scene scene = tiny_scene(120);
+  const auto a = sim::run_convergence(scene, opt);
+  EXPECT_EQ(a.start_state, "simulated");
+  EXPECT_EQ(a.cloth, "sheet");
+  ASSERT_EQ(a.references.size(), 1u);
+  EXPECT_EQ(a.references[0].form, "elastic");
+  EXPECT_TRUE(a.references[0].reached) << a.references[0].rel_grad;
+  EXPECT_GT(a.references[0].initial_energy, a.references[0].energy);
+  ASSERT_EQ(a.summaries.size(), 2u);
+  for (const auto& s : a.summaries) {
+    EXPECT_LT(std::abs(s.final_error), 1e-6) << s.solver;
+    EXPECT_TRUE(s.time_to[2]) << s.solver;
+  }
+  // Both start at the same x0: the same E_0, error exactly 1.
+  for (const auto& label : {"newton", "newton@linear_solver=pcg-jacobi"}) {
+    const auto it = std::find_if(a.rows.begin(), a.rows.end(), [&](const auto& r) { return r.solver == label; });
+    ASSERT_NE(it, a.rows.end());
+    EXPECT_EQ(it->iteration, 0);
+    EXPECT_EQ(it->rel_energy_error, 1.0);
+    EXPECT_EQ(it->energy, a.references[0].initial_energy);
+  }
+  EXPECT_EQ(sim::convergence_csv(a).rfind("solver,iteration,wall_s,energy,grad_norm,rel_energy_error\n", 0), 0u);
+  const Json j = sim::to_json(a, opt);
+  EXPECT_EQ(j.at("references")[0].at("energy").get<double>(), a.references[0].energy);
+  EXPECT_TRUE(j.at("solvers")[0].at("time_to").contains("1e-04"));
+
+  // Again from the cache: the same step, so the same start point and E*.
+  opt.solvers = sim::parse_solver_list("newton");
+  const auto b = sim::run_convergence(scene, opt);
+  EXPECT_EQ(b.start_state, "cache");
+  EXPECT_EQ(b.references[0].initial_energy, a.references[0].initial_energy);
+  EXPECT_EQ(b.references[0].energy, a.references[0].energy);
+  // Another vertex count does not match the cached state.
+  const auto c = sim::run_convergence(tiny_scene(100), opt);
+  EXPECT_EQ(c.start_state, "simulated");
+  fs::remove(cache);
+}
+
+TEST(Convergence, BadOptionsFailBeforeSimulating) {
+  sim::ConvergenceOptions opt;
+  opt.solvers = sim::parse_solver_list("newton");
+  opt.step = 0;
+  EXPECT_THROW(sim::run_convergence(tiny_scene(100), opt), InputError);
+  opt.step = 1;
+  opt.solvers = sim::parse_solver_list("newton,nope");
+  EXPECT_THROW(sim::run_convergence(tiny_scene(100), opt), InputError);
+  opt.solvers.clear();
+  EXPECT_THROW(sim::run_convergence(tiny_scene(100), opt), InputError);
+}
