@@ -25,9 +25,9 @@ TEST(Scene, DefaultsAreFilledAndResolvedSceneRoundTrips) {
   const auto s = sim::parse_scene(minimal(), "scene.json", ".");
   EXPECT_EQ(s.cloths.size(), 1u);
   EXPECT_NEAR(s.cloths[0].material.youngs_modulus, 1e6, 0);
-  EXPECT_EQ(s.solver.name, "newton");
+  EXPECT_EQ(s.solver.name, "fmg");
   const Json resolved = sim::to_json(s);
-  EXPECT_TRUE(resolved["solver"]["params"].contains("linear_solver"));
+  EXPECT_TRUE(resolved["solver"]["params"].contains("matrix_update"));
   // The resolved scene is itself a valid scene that resolves to the same thing.
   const auto again = sim::parse_scene(resolved, "resolved.json", ".");
   EXPECT_EQ(sim::to_json(again), resolved);

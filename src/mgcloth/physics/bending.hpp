@@ -64,6 +64,11 @@ class QuadraticBending final : public ElementTerm<4> {
   QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_quadratic"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  /// The Hessian is constant and PSD already: no projection.
+  void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override {
+    Local g;
+    element(e, xe, &g, &H);
+  }
 
  private:
   std::vector<Eigen::Vector4d> m_k;

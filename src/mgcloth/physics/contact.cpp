@@ -3,7 +3,7 @@
 
 namespace mgcloth::physics {
 
-ObstacleContact::ObstacleContact(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params)
+ObstaclePenalty::ObstaclePenalty(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params)
     : m_area(std::move(area)), m_obstacles(std::move(obstacles)), m_params(params) {
   const Index n = static_cast<Index>(m_area.size());
   std::vector<Element> els(n);
@@ -12,18 +12,21 @@ ObstacleContact::ObstacleContact(VecX area, std::vector<geometry::Obstacle> obst
   set_time(0.0);
 }
 
-void ObstacleContact::set_time(double t) {
+void ObstaclePenalty::set_time(double t) {
   m_poses.resize(m_obstacles.size());
   for (size_t o = 0; o < m_obstacles.size(); ++o) m_poses[o] = m_obstacles[o].motion->pose(t);
 }
 
+ObstacleContact::ObstacleContact(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params)
+    : ObstaclePenalty(std::move(area), std::move(obstacles), params) {}
+
 double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian* H) const {
-  const double d = m_params.thickness, k = vertex_stiffness(i);
+  const double d = params().thickness, k = vertex_stiffness(i);
   double energy = 0.0;
   if (g) g->setZero();
   if (H) H->setZero();
-  for (size_t o = 0; o < m_obstacles.size(); ++o) {
-    const geometry::SdfSample s = m_obstacles[o].sdf(xe, m_poses[o]);
+  for (size_t o = 0; o < obstacles().size(); ++o) {
+    const geometry::SdfSample s = obstacles()[o].sdf(xe, poses()[o]);
     const double gap = d - s.phi;
     if (gap <= 0.0) continue;
     energy += k * gap * gap * gap / (3.0 * d);
@@ -59,7 +62,7 @@ Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& o
   return count;
 }
 
-void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstacleContact& contact, double h,
+void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePenalty& contact, double h,
                     const VecX& pushed, double t) {
   const auto& obstacles = contact.obstacles();
   const auto& poses = contact.poses();
@@ -76,7 +79,7 @@ void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstacleCont
       Vec3 v_rel = v.segment<3>(3 * i) - v_obs;
       double vn = v_rel.dot(nrm);
       // The normal velocity change the contact produced this step: penalty impulse plus projection push.
-      const double dvn = h * contact.vertex_stiffness(i) * gap * gap / d / mass[i] + pushed[i] / h;
+      const double dvn = h * contact.normal_force(i, gap) / mass[i] + pushed[i] / h;
       if (vn < 0.0) vn = 0.0;  // no velocity into the obstacle survives the step
       Vec3 vt = v_rel - v_rel.dot(nrm) * nrm;
       const double vt_norm = vt.norm();

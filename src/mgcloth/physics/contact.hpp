@@ -9,29 +9,43 @@ struct ContactParams {
   double stiffness = 1.0e5;   ///< N/m³: penalty per unit of the vertex's area, k_i = stiffness · A_i
 };
 
-/// Obstacle penalty: E = Σ_i Σ_o k_i/(3d) (d − φ_o(x_i))³ where φ_o < d (Wang 2018 §4.5 uses penalties for
-/// obstacle contact). Cubic rather than quadratic so that the Hessian is continuous where a vertex enters the
-/// contact layer: with the C¹ quadratic penalty Newton zigzags across φ = d (measured 12% more iterations on the
-/// sphere drape). The force k_i (d − φ)²/d reaches k_i d at the surface. Obstacles are placed at the end-of-step
-/// time, set per step. Exact Hessian (k/d)(2(d − φ)∇φ∇φᵀ − (d − φ)²∇²φ); the curvature part is negative on convex
-/// obstacles and clamped by projection.
-class ObstacleContact final : public ElementTerm<1> {
+/// What every obstacle penalty shares: the obstacles (placed at the end-of-step time, set per step), the contact
+/// layer of thickness d, per-vertex weights from the lumped areas, and the penalty's normal force, which friction
+/// (apply_friction) needs whatever the penalty's form (ObstacleContact, PDObstacleContact).
+class ObstaclePenalty : public ElementTerm<1> {
  public:
-  ObstacleContact(VecX vertex_area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params);
-  std::string name() const override { return "contact"; }
   /// Places the obstacles at time t for the following evaluations.
   void set_time(double t);
-  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
   const std::vector<geometry::Obstacle>& obstacles() const { return m_obstacles; }
   const std::vector<geometry::Pose>& poses() const { return m_poses; }
   const ContactParams& params() const { return m_params; }
+  /// k_i = stiffness · A_i.
   double vertex_stiffness(Index i) const { return m_params.stiffness * m_area[i]; }
+  /// Magnitude of the penalty force on vertex i at depth gap = d − φ > 0 into the contact layer of one obstacle.
+  virtual double normal_force(Index i, double gap) const = 0;
+
+ protected:
+  /// One element per vertex; `vertex_area` gives the number of vertices.
+  ObstaclePenalty(VecX vertex_area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params);
 
  private:
   VecX m_area;
   std::vector<geometry::Obstacle> m_obstacles;
   std::vector<geometry::Pose> m_poses;
   ContactParams m_params;
+};
+
+/// Obstacle penalty: E = Σ_i Σ_o k_i/(3d) (d − φ_o(x_i))³ where φ_o < d (Wang 2018 §4.5 uses penalties for
+/// obstacle contact). Cubic rather than quadratic so that the Hessian is continuous where a vertex enters the
+/// contact layer: with the C¹ quadratic penalty Newton zigzags across φ = d (measured 12% more iterations on the
+/// sphere drape). The force k_i (d − φ)²/d reaches k_i d at the surface. Exact Hessian
+/// (k/d)(2(d − φ)∇φ∇φᵀ − (d − φ)²∇²φ); the curvature part is negative on convex obstacles and clamped by projection.
+class ObstacleContact final : public ObstaclePenalty {
+ public:
+  ObstacleContact(VecX vertex_area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params);
+  std::string name() const override { return "contact"; }
+  double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  double normal_force(Index i, double gap) const override { return vertex_stiffness(i) * gap * gap / params().thickness; }
 };
 
 /// Moves every vertex that lies inside an obstacle (φ < 0) back onto its surface along ∇φ; returns how many moved.
@@ -41,8 +55,9 @@ Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& o
 
 /// Coulomb friction by velocity filtering (Bridson et al. 2002): for a vertex in contact, the tangential velocity
 /// relative to the obstacle surface is reduced by μ times the normal velocity change the contact caused
-/// (penalty impulse h·f_n/m plus the projection push / h), and clamped at zero (static friction).
-void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstacleContact& contact, double h,
+/// (penalty impulse h·f_n/m, f_n = contact.normal_force, plus the projection push / h), and clamped at zero
+/// (static friction).
+void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePenalty& contact, double h,
                     const VecX& pushed, double t);
 
 }  // namespace mgcloth::physics

@@ -16,6 +16,10 @@ struct Material {
   double bending_stiffness = 5e-6;  ///< N·m
   MembraneModel membrane = MembraneModel::StVK;
   BendingModel bending = BendingModel::Hinge;
+  /// Projective Dynamics form only (PDStrainMembrane): the range the strain constraint clamps the deformation
+  /// gradient's singular values to (Bouaziz et al. 2014 §5); [1, 1] is as-rigid-as-possible.
+  double pd_strain_min = 1.0;
+  double pd_strain_max = 1.0;
 
   double areal_density() const { return density * thickness; }
   /// Plane-stress Lamé parameters of the membrane (per unit volume; multiplied by thickness in the energy).

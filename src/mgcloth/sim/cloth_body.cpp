@@ -1,3 +1,4 @@
+#include <mgcloth/core/error.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/membrane.hpp>
@@ -51,7 +52,16 @@ std::vector<Index> select_pins(const PinSpec& p, const mesh::TriMesh& m, const s
 
 ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
                      const physics::ContactParams& contact, const Vec3& gravity, bool projective)
-    : m_name(spec.name), m_mesh(load_mesh(spec)), m_material_scale(spec.mesh.material_scale), m_pin_specs(spec.pins) {
+    : m_name(spec.name),
+      m_mesh(load_mesh(spec)),
+      m_material_scale(spec.mesh.material_scale),
+      m_material(spec.material),
+      m_gravity(gravity),
+      m_seam_stiffness(spec.seam_stiffness),
+      m_obstacles(obstacles),
+      m_contact_params(contact),
+      m_projective(projective),
+      m_pin_specs(spec.pins) {
   m_topology = mesh::build_topology(m_mesh, spec.mesh.file.empty() ? spec.name : spec.mesh.file);
   // Initial world state: the mesh's own positions, placed by the cloth's transform.
   const Eigen::Quaterniond R = spec.transform.rotation();
@@ -63,23 +73,6 @@ ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle
   m_area = lumped_vertex_area(m_mesh);
   m_mass = m_area * spec.material.areal_density();
 
-  if (projective) throw InputError("the Projective Dynamics formulation is not available yet");
-  m_objective = physics::Objective(n);
-  m_inertia = &m_objective.add(std::make_unique<physics::InertiaTerm>(m_mass));
-  m_objective.add(std::make_unique<physics::GravityTerm>(m_mass, gravity));
-  if (spec.material.membrane == physics::MembraneModel::StVK)
-    m_objective.add(std::make_unique<physics::StVKMembrane>(m_mesh, spec.material));
-  else
-    m_objective.add(std::make_unique<physics::MassSpringMembrane>(m_mesh, m_topology, spec.material));
-  if (spec.material.bending == physics::BendingModel::Hinge)
-    m_objective.add(std::make_unique<physics::HingeBending>(m_mesh, m_topology, spec.material));
-  else if (spec.material.bending == physics::BendingModel::Quadratic)
-    m_objective.add(std::make_unique<physics::QuadraticBending>(m_mesh, m_topology, spec.material));
-
-  if (!m_topology.stitch_groups.empty())
-    m_objective.add(std::make_unique<physics::SeamTerm>(m_topology.stitch_groups, spec.seam_stiffness, n));
-
-  std::vector<double> stiffness;
   for (size_t k = 0; k < m_pin_specs.size(); ++k) {
     const PinSpec& p = m_pin_specs[k];
     geometry::PointCurve curve;
@@ -89,14 +82,51 @@ ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle
       m_pin_vertices.push_back(v);
       m_pin_rest.push_back(m_x.segment<3>(3 * v));
       m_pin_spec.push_back(k);
-      stiffness.push_back(p.stiffness);
+      m_pin_stiffness.push_back(p.stiffness);
     }
   }
-  if (!m_pin_vertices.empty())
-    m_pins = &m_objective.add(std::make_unique<physics::AttachmentTerm>(m_pin_vertices, stiffness, n));
-  if (!obstacles.empty())
-    m_contact = &m_objective.add(std::make_unique<physics::ObstacleContact>(m_area, obstacles, contact));
-  m_objective.finalize();
+  m_levels.push_back(build_objective(m_mesh, m_topology, m_area, m_pin_vertices));
+}
+
+ClothBody::LevelObjective ClothBody::build_objective(const mesh::TriMesh& mesh, const mesh::Topology& topology,
+                                                     const VecX& area, const std::vector<Index>& pins) const {
+  const Index n = mesh.num_vertices();
+  const VecX mass = area * m_material.areal_density();
+  LevelObjective lv;
+  lv.objective = std::make_unique<physics::Objective>(n);
+  physics::Objective& obj = *lv.objective;
+  lv.inertia = &obj.add(std::make_unique<physics::InertiaTerm>(mass));
+  obj.add(std::make_unique<physics::GravityTerm>(mass, m_gravity));
+  if (m_projective)
+    obj.add(std::make_unique<physics::PDStrainMembrane>(mesh, m_material));
+  else if (m_material.membrane == physics::MembraneModel::StVK)
+    obj.add(std::make_unique<physics::StVKMembrane>(mesh, m_material));
+  else
+    obj.add(std::make_unique<physics::MassSpringMembrane>(mesh, topology, m_material));
+  // Hinge bending is not a PD constraint (its matrix changes with x); the quadratic model is the PD bending
+  // constraint of Bouaziz et al. 2014 for a flat rest state, so the PD form uses it for either model.
+  if (m_material.bending == physics::BendingModel::Quadratic ||
+      (m_projective && m_material.bending == physics::BendingModel::Hinge))
+    obj.add(std::make_unique<physics::QuadraticBending>(mesh, topology, m_material));
+  else if (m_material.bending == physics::BendingModel::Hinge)
+    obj.add(std::make_unique<physics::HingeBending>(mesh, topology, m_material));
+
+  if (!topology.stitch_groups.empty())
+    obj.add(std::make_unique<physics::SeamTerm>(topology.stitch_groups, m_seam_stiffness, n));
+  if (!pins.empty()) lv.pins = &obj.add(std::make_unique<physics::AttachmentTerm>(pins, m_pin_stiffness, n));
+  if (!m_obstacles.empty()) {
+    if (m_projective) {
+      // Active-set margin d: a vertex predicted within 2d of an obstacle keeps w I in the step's matrix, so vertices
+      // that move up to d beyond their prediction towards the obstacle are already in it.
+      lv.pd_contact = &obj.add(std::make_unique<physics::PDObstacleContact>(area, m_obstacles, m_contact_params,
+                                                                            m_contact_params.thickness));
+      lv.contact = lv.pd_contact;
+    } else {
+      lv.contact = &obj.add(std::make_unique<physics::ObstacleContact>(area, m_obstacles, m_contact_params));
+    }
+  }
+  obj.finalize();
+  return lv;
 }
 
 const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::HierarchyParams& params) {
@@ -106,6 +136,41 @@ const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::Hierar
     m_hierarchy = std::make_unique<hierarchy::TriangleHierarchy>(hierarchy::build_triangle_hierarchy(m_mesh, p));
   }
   return *m_hierarchy;
+}
+
+std::vector<const physics::Objective*> ClothBody::level_objectives(const hierarchy::HierarchyParams& params) {
+  const hierarchy::TriangleHierarchy& h = hierarchy(params);
+  if (!m_coarse_built) {
+    const double fine_area = m_area.sum();
+    for (Index l = 1; l < h.num_levels(); ++l) {
+      const hierarchy::Level& level = h.level(l);
+      const mesh::Topology topology = mesh::build_topology(level.mesh, fmt::format("{} (level {})", m_name, l));
+      // Lumped coarse areas, scaled to the fine total: equal for polygonal panels whose corners every level keeps,
+      // and the total mass and weight stay exact where a coarse boundary cuts a curved one.
+      VecX area = lumped_vertex_area(level.mesh);
+      area *= fine_area / area.sum();
+      std::vector<Index> on_level(m_mesh.num_vertices(), -1);
+      for (Index i = 0; i < level.mesh.num_vertices(); ++i) on_level[level.to_finest[i]] = i;
+      std::vector<Index> pins(m_pin_vertices.size());
+      for (size_t p = 0; p < pins.size(); ++p) {
+        pins[p] = on_level[m_pin_vertices[p]];
+        if (pins[p] < 0) throw_error("cloth \"{}\": pinned vertex {} missing on level {}", m_name, m_pin_vertices[p], l);
+      }
+      m_levels.push_back(build_objective(level.mesh, topology, area, pins));
+    }
+    m_coarse_built = true;
+    if (m_step_h > 0.0)
+      for (size_t l = 1; l < m_levels.size(); ++l) set_coarse_step(l);
+  }
+  std::vector<const physics::Objective*> out;
+  for (size_t l = 1; l < m_levels.size(); ++l) out.push_back(m_levels[l].objective.get());
+  return out;
+}
+
+std::vector<const std::vector<Index>*> injections(const hierarchy::TriangleHierarchy& h) {
+  std::vector<const std::vector<Index>*> out;
+  for (Index l = 1; l < h.num_levels(); ++l) out.push_back(&h.level(l).fine_index);
+  return out;
 }
 
 std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h) {
@@ -126,23 +191,39 @@ std::vector<Vec3> ClothBody::pin_targets(double t) const {
   return targets;
 }
 
-VecX ClothBody::prepare_step(double t, double h) {
-  const double t_next = t + h;
-  VecX y = m_x + h * m_v;
-  m_inertia->set_prediction(y, h);
-  if (m_pins) m_pins->set_targets(pin_targets(t_next));
-  if (m_contact) {
-    m_contact->set_time(t_next);
-    physics::project_out_of_obstacles(y, m_contact->obstacles(), m_contact->poses());
+VecX ClothBody::set_step(LevelObjective& lv, VecX y, double h, double t_next, const std::vector<Vec3>& targets) {
+  lv.inertia->set_prediction(y, h);
+  if (lv.pins) lv.pins->set_targets(targets);
+  if (lv.contact) {
+    lv.contact->set_time(t_next);
+    physics::project_out_of_obstacles(y, lv.contact->obstacles(), lv.contact->poses());
+    if (lv.pd_contact) lv.pd_contact->set_active(y);
   }
   return y;
 }
 
+void ClothBody::set_coarse_step(size_t l) {
+  // Coarse vertex sets are nested: a coarse vertex's prediction is the fine prediction of the same vertex.
+  const std::vector<Index>& to_finest = m_hierarchy->level(static_cast<Index>(l)).to_finest;
+  VecX y(3 * to_finest.size());
+  for (size_t i = 0; i < to_finest.size(); ++i) y.segment<3>(3 * i) = m_prediction.segment<3>(3 * to_finest[i]);
+  set_step(m_levels[l], std::move(y), m_step_h, m_step_end, pin_targets(m_step_end));
+}
+
+VecX ClothBody::prepare_step(double t, double h) {
+  m_step_end = t + h;
+  m_step_h = h;
+  m_prediction = m_x + h * m_v;
+  for (size_t l = 1; l < m_levels.size(); ++l) set_coarse_step(l);
+  return set_step(m_levels[0], m_prediction, h, m_step_end, pin_targets(m_step_end));
+}
+
 void ClothBody::finish_step(VecX& x_new, double t_next, double h) {
   VecX pushed = VecX::Zero(m_mesh.num_vertices());
-  if (m_contact) physics::project_out_of_obstacles(x_new, m_contact->obstacles(), m_contact->poses(), &pushed);
+  const physics::ObstaclePenalty* c = contact();
+  if (c) physics::project_out_of_obstacles(x_new, c->obstacles(), c->poses(), &pushed);
   m_v = (x_new - m_x) / h;
-  if (m_contact) physics::apply_friction(x_new, m_v, m_mass, *m_contact, h, pushed, t_next);
+  if (c) physics::apply_friction(x_new, m_v, m_mass, *c, h, pushed, t_next);
   m_x = x_new;
 }
 

@@ -6,14 +6,18 @@
 #include <mgcloth/physics/contact.hpp>
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/objective.hpp>
+#include <mgcloth/physics/projective.hpp>
 #include <mgcloth/sim/scene.hpp>
 
 namespace mgcloth::sim {
 
-/// One cloth: its discretization, its per-step objective, and its state.
+/// One cloth: its discretization, its per-step objective (and, for solvers that rediscretize, the same objective on
+/// each coarse level of its hierarchy), and its state.
 class ClothBody {
  public:
-  /// `projective`: build the Projective Dynamics form of the energy (NonlinearSolver::projective()).
+  /// `projective`: build the Projective Dynamics form of the energy (NonlinearSolver::projective()): PD strain
+  /// membrane, quadratic bending (unless the material has none) and PD contact instead of the elastic membrane,
+  /// the material's bending model and the cubic contact penalty (physics/projective.hpp).
   ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles, const physics::ContactParams& contact,
             const Vec3& gravity, bool projective = false);
 
@@ -23,34 +27,69 @@ class ClothBody {
   double material_scale() const { return m_material_scale; }
   const VecX& mass() const { return m_mass; }
   const std::vector<Index>& pinned_vertices() const { return m_pin_vertices; }
+  bool projective() const { return m_projective; }
 
   VecX& x() { return m_x; }
   VecX& v() { return m_v; }
   const VecX& x() const { return m_x; }
   const VecX& v() const { return m_v; }
 
-  /// Sets the objective of the step from t to t + h: inertial prediction, pin targets and obstacles at t + h.
+  /// Sets the objective of the step from t to t + h (and the coarse levels' objectives, once built): inertial
+  /// prediction, pin targets, obstacles at t + h and, in the PD form, the contact active sets.
   /// Returns the predicted positions y = x + h v (the solve's start, made feasible against obstacles).
   VecX prepare_step(double t, double h);
-  physics::Objective& objective() { return m_objective; }
-  const physics::ObstacleContact* contact() const { return m_contact; }
+  physics::Objective& objective() { return *m_levels[0].objective; }
+  /// The obstacle penalty (cubic, or PD in the projective form); null without obstacles.
+  const physics::ObstaclePenalty* contact() const { return m_levels[0].contact; }
   /// Contact projection and friction after the solve: x_new is projected, v = (x_new − x)/h then filtered.
   void finish_step(VecX& x_new, double t_next, double h);
   std::vector<Vec3> pin_targets(double t) const;
   /// The cloth's mesh hierarchy (Wang 2018 App. B), built on first use with the pinned vertices kept.
   const hierarchy::TriangleHierarchy& hierarchy(const hierarchy::HierarchyParams& params);
+  /// The step's objective rediscretized on levels 1..H of hierarchy(params) (entry l is level l + 1), for
+  /// Problem::level_objectives: the fine objective's terms built on the coarse mesh (masses and contact weights from
+  /// the coarse lumped material areas, scaled so that the total mass is the fine one; membrane and bending from the
+  /// coarse triangles and hinges; seams from the coarse stitch groups; the pins on their kept vertices). Built on
+  /// first use; prepare_step keeps them on the current step, each level's prediction the fine one injected.
+  std::vector<const physics::Objective*> level_objectives(const hierarchy::HierarchyParams& params);
 
  private:
+  /// One level's objective and the terms that prepare_step updates.
+  struct LevelObjective {
+    std::unique_ptr<physics::Objective> objective;
+    physics::InertiaTerm* inertia = nullptr;
+    physics::AttachmentTerm* pins = nullptr;
+    physics::ObstaclePenalty* contact = nullptr;
+    physics::PDObstacleContact* pd_contact = nullptr;  ///< == contact in the PD form, else null
+  };
+  /// The objective of one discretization (the cloth's mesh or a coarse level): `area` the lumped vertex areas,
+  /// `pins` the level's vertex of each entry of m_pin_vertices.
+  LevelObjective build_objective(const mesh::TriMesh& mesh, const mesh::Topology& topology, const VecX& area,
+                                 const std::vector<Index>& pins) const;
+  /// Sets level `lv` for the step ending at t_next with prediction y; returns y projected out of obstacles.
+  static VecX set_step(LevelObjective& lv, VecX y, double h, double t_next, const std::vector<Vec3>& targets);
+  /// Sets coarse level l (>= 1) for the last prepared step.
+  void set_coarse_step(size_t l);
+
   std::string m_name;
   mesh::TriMesh m_mesh;
   mesh::Topology m_topology;
   double m_material_scale = 1.0;
   VecX m_mass, m_area, m_x, m_v;
-  physics::Objective m_objective{0};
-  physics::InertiaTerm* m_inertia = nullptr;
-  physics::AttachmentTerm* m_pins = nullptr;
-  physics::ObstacleContact* m_contact = nullptr;
+  physics::Material m_material;
+  Vec3 m_gravity = Vec3::Zero();
+  double m_seam_stiffness = 0.0;
+  std::vector<geometry::Obstacle> m_obstacles;
+  physics::ContactParams m_contact_params;
+  bool m_projective = false;
+  /// Level 0 is the cloth's own objective; levels 1..H are added by level_objectives().
+  std::vector<LevelObjective> m_levels;
+  bool m_coarse_built = false;
+  /// The last prepare_step(): its unprojected prediction, step size and end time (h = 0: none yet).
+  VecX m_prediction;
+  double m_step_h = 0.0, m_step_end = 0.0;
   std::vector<Index> m_pin_vertices;
+  std::vector<double> m_pin_stiffness;
   std::vector<Vec3> m_pin_rest;
   std::vector<size_t> m_pin_spec;  ///< which PinSpec each pinned vertex came from
   std::vector<PinSpec> m_pin_specs;
@@ -60,6 +99,9 @@ class ClothBody {
 
 /// The prolongation tables of a hierarchy, finest first (what solvers::Problem carries).
 std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h);
+
+/// Where each vertex of level l + 1 sits on level l (Level::fine_index), finest first (Problem::injection).
+std::vector<const std::vector<Index>*> injections(const hierarchy::TriangleHierarchy& h);
 
 /// Lumped (one third of each adjacent triangle) vertex areas in material space.
 VecX lumped_vertex_area(const mesh::TriMesh& mesh);

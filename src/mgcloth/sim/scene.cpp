@@ -33,6 +33,8 @@ physics::Material parse_material(JsonReader r, std::string& preset) {
   m.bending = bending == "hinge" ? physics::BendingModel::Hinge
               : bending == "quadratic" ? physics::BendingModel::Quadratic
                                        : physics::BendingModel::None;
+  m.pd_strain_min = r.number("pd_strain_min", m.pd_strain_min, 0.0, 1.0);
+  m.pd_strain_max = r.number("pd_strain_max", m.pd_strain_max, 1.0, 100.0);
   r.finish();
   return m;
 }
@@ -339,7 +341,9 @@ Json to_json(const Scene& s) {
                       {"density", m.density},
                       {"bending_stiffness", m.bending_stiffness},
                       {"membrane", physics::to_string(m.membrane)},
-                      {"bending", physics::to_string(m.bending)}};
+                      {"bending", physics::to_string(m.bending)},
+                      {"pd_strain_min", m.pd_strain_min},
+                      {"pd_strain_max", m.pd_strain_max}};
     cj["pins"] = Json::array();
     for (const auto& p : c.pins) {
       Json pj;

@@ -17,7 +17,7 @@ Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
   for (size_t i = 0; i < m_scene.cloths.size(); ++i) {
     const auto& c = m_scene.cloths[i];
     // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
-    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver"));
+    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
       m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
                                                      m_solvers.back()->projective()));
@@ -34,6 +34,10 @@ solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
   problem.objective = &body.objective();
   if (m_solvers[c]->needs_hierarchy() || m_solvers[c]->needs_level_objectives())
     problem.prolongations = prolongations(body.hierarchy(m_scene.hierarchy));
+  if (m_solvers[c]->needs_level_objectives()) {
+    problem.level_objectives = body.level_objectives(m_scene.hierarchy);
+    problem.injection = injections(body.hierarchy(m_scene.hierarchy));
+  }
   if (body.contact()) {
     const auto* contact = body.contact();
     problem.project = [contact](VecX& y) {

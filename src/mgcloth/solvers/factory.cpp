@@ -57,6 +57,7 @@ FmgParams read_fmg(JsonReader& r, FmgParams p) {
     p.multigrid.chebyshev = r.boolean("chebyshev_smoothing", p.multigrid.chebyshev);
   }
   p.matrix_update = matrix_update_from_string(r.choice("matrix_update", to_string(p.matrix_update), matrix_update_names()));
+  p.refresh_below = r.number("refresh_below", p.refresh_below, 0.0, 1.0);
   p.line_search = r.boolean("line_search", p.line_search);
   p.adaptive_threshold = r.number("adaptive_threshold", p.adaptive_threshold, 0.0, 100.0);
   p.chebyshev_rho = r.number("chebyshev_rho", p.chebyshev_rho, 0.0, 0.9999);
@@ -77,6 +78,7 @@ Json write_fmg(const FmgParams& p) {
     j["chebyshev_smoothing"] = p.multigrid.chebyshev;
   }
   j["matrix_update"] = to_string(p.matrix_update);
+  j["refresh_below"] = p.refresh_below;
   j["line_search"] = p.line_search;
   j["adaptive_threshold"] = p.adaptive_threshold;
   j["chebyshev_rho"] = p.chebyshev_rho;
@@ -124,6 +126,7 @@ FmgParams fmg_preset(const std::string& name) {
   FmgParams p;
   if (name == "gs-chebyshev" || name == "pd-gs-chebyshev") {
     p.single_level = true;
+    p.multigrid.chebyshev = false;
     p.multigrid.pre_smooth = 1;
     p.chebyshev_rho = 0.9;
   }

@@ -51,14 +51,26 @@ void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
     return;
   }
   const auto& A = matrix(l);
-  smooth(l, b, x, m_params.pre_smooth);
+  const bool adaptive = m_params.adaptive_threshold > 0.0;
+  std::vector<char> mask;
+  // Adaptive smoothing (Wang 2018 §4.3): vertices whose residual is below the threshold times the level's RMS
+  // residual are skipped by the sweeps. The pre-smoothing residual is b itself for a correction started from 0.
+  const auto masked = [&](const VecX& res, int sweeps) {
+    const Index n = A.rows();
+    const double rms = res.norm() / std::sqrt(static_cast<double>(std::max<Index>(1, n)));
+    const Index active = linalg::adaptive_mask(res, m_params.adaptive_threshold * rms, mask);
+    m_rows_active += 2.0 * sweeps * static_cast<double>(active);
+    m_rows_total += 2.0 * sweeps * static_cast<double>(n);
+    return &mask;
+  };
+  smooth(l, b, x, m_params.pre_smooth, adaptive ? masked(x.isZero(0.0) ? b : VecX(b - A * x), m_params.pre_smooth) : nullptr);
   const VecX r = b - A * x;
   VecX rc, ec = VecX::Zero(3 * matrix(l + 1).rows()), correction;
   m_p[l]->apply_transpose(r, rc);
   cycle(l + 1, rc, ec);
   m_p[l]->apply(ec, correction);
   x += correction;
-  smooth(l, b, x, m_params.post_smooth);
+  smooth(l, b, x, m_params.post_smooth, adaptive ? masked(VecX(b - A * x), m_params.post_smooth) : nullptr);
 }
 
 void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask) const {

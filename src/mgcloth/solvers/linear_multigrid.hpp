@@ -17,6 +17,10 @@ struct MultigridParams {
   /// Factor the coarsest level (CHOLMOD). Off for a smoother-only use of a single level (nonlinear Gauss-Seidel),
   /// which then gets a smoother on its coarsest level instead.
   bool factorize_coarsest = true;
+  /// Adaptive smoothing inside the V-cycles (Wang 2018 §4.3): skip vertices whose residual is below this times the
+  /// level's RMS residual. 0 = off. Makes the cycle depend on its data, so only for use as a search direction
+  /// (with a line search), not as a PCG preconditioner.
+  double adaptive_threshold = 0.0;
 };
 
 /// Linear geometric multigrid for the 3x3-block systems of Newton's method (Wang 2018 §3.1, Fig. 2a): Galerkin
@@ -56,6 +60,11 @@ class LinearMultigrid {
   /// Vertices (block rows) of level l.
   Index level_size(Index l) const { return m_sizes[l]; }
   const MultigridParams& params() const { return m_params; }
+  /// Adaptive smoothing statistics since the last reset: block-row relaxations done / possible (a symmetric sweep
+  /// counts two per row).
+  double rows_active() const { return m_rows_active; }
+  double rows_total() const { return m_rows_total; }
+  void reset_adaptive_stats() const { m_rows_active = m_rows_total = 0.0; }
 
   /// Spectral radius of each level's symmetric sweep used by Chebyshev smoothing (0 until estimated).
   double smoother_rho(Index l) const { return m_levels[l].rho; }
@@ -74,6 +83,7 @@ class LinearMultigrid {
   std::vector<const hierarchy::TransferTable*> m_p;
   std::vector<Level> m_levels;
   std::vector<Index> m_sizes;
+  mutable double m_rows_active = 0.0, m_rows_total = 0.0;
   const linalg::BlockMatrix3* m_fine = nullptr;
   linalg::CholmodSolver m_coarse_solver;
   MultigridParams m_params;

@@ -21,6 +21,7 @@ MatrixUpdate matrix_update_from_string(const std::string& s) {
 
 NonlinearFMG::NonlinearFMG(FmgParams params, std::string name) : m_params(std::move(params)), m_name(std::move(name)) {
   if (m_params.single_level) m_params.multigrid.factorize_coarsest = false;
+  m_params.multigrid.adaptive_threshold = m_params.adaptive_threshold;
 }
 
 std::vector<NonlinearFMG::Stage> NonlinearFMG::schedule(Index L) const {
@@ -57,6 +58,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   }
   const Index L = m_mg->num_levels();
   const std::vector<Stage> stages = schedule(L);
+  m_mg->reset_adaptive_stats();
 
   SolveReport rep;
   VecX g, r, d, trial, x_prev;
@@ -76,7 +78,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
 
   VecX Ad, p, Ap, sv, As;  // A_0 d, the search direction and A_0 p, the previous step s and A_0 s
-  bool have_s = false, as_stale = false;
+  bool have_s = false, as_stale = false, model_poor = false;
   const auto update_matrix = [&] {
     Timer t;
     if (m_params.matrix_update == MatrixUpdate::Constant && m_have_matrix) {
@@ -89,6 +91,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
       m_stats.assembly_ms += t.ms();
     }
     as_stale = true;
+    std::fill(m_beta.begin(), m_beta.end(), 1.0);  // a fresh model is trusted again
     Timer tg;
     m_mg->set_matrix(m_A);
     m_stats.galerkin_ms += tg.ms();
@@ -268,6 +271,9 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
     int tries = 0;
     for (; tries < lp.max_steps; ++tries) {
       trial = x + alpha * p;
+      // Trial points are made feasible first (§4.5): a direction that would push a few vertices into an obstacle
+      // is not cut short for all the others by the penalty's steep wall.
+      if (problem.project) problem.project(trial);
       et = energy(trial);
       if (std::isfinite(et) && et <= e + lp.armijo * alpha * p_slope) {
         ok = true;
@@ -288,6 +294,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
       return false;
     }
     // A first-trial acceptance lets the next start probe twice as far (never beyond the model step).
+    if (alpha < m_params.refresh_below) model_poor = true;
     m_beta[st.level] = std::min(1.0, tries == 0 ? 2.0 * alpha : alpha);
     if (rho > 0.0) x_prev = x;
     sv = alpha * p;
@@ -318,7 +325,14 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
     int moved = 0;
     bool stale = false;
     for (const Stage& st : stages) {
-      if (m_params.matrix_update == MatrixUpdate::Direction && stale) update_matrix();
+      // The matrix is also refreshed within a cycle when the line search found the model far off (a large move,
+      // e.g. the coarse correction bringing the cloth into contact, whose stiffness the old matrix lacks).
+      const bool refreshable = m_params.matrix_update == MatrixUpdate::Direction || m_params.matrix_update == MatrixUpdate::Cycle;
+      if (stale && refreshable && (m_params.matrix_update == MatrixUpdate::Direction || model_poor)) {
+        update_matrix();
+        ++m_stats.refreshes;
+      }
+      model_poor = false;
       stale = direction(st);
       if (stale) ++moved;
       check_finite(e, gnorm, k + 1);
@@ -360,11 +374,15 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   rep.energy = e;
   rep.grad_norm = gnorm;
   rep.wall_ms = timer.ms();
+  // Relaxations inside the linear V-cycles (counted only when the adaptive smoother is on).
+  m_stats.rows_relaxed += m_mg->rows_active();
+  m_stats.rows_skipped += m_mg->rows_total() - m_mg->rows_active();
   const double relaxations = m_stats.rows_relaxed + m_stats.rows_skipped;
   rep.counters = {{"directions", static_cast<double>(m_stats.directions)},
                   {"rejected_directions", static_cast<double>(m_stats.rejected)},
                   {"energy_evals", static_cast<double>(m_stats.energy_evals)},
                   {"matrix_updates", static_cast<double>(m_stats.matrix_updates)},
+                  {"refreshes", static_cast<double>(m_stats.refreshes)},
                   {"skipped_fraction", relaxations > 0.0 ? m_stats.rows_skipped / relaxations : 0.0},
                   {"assembly_ms", m_stats.assembly_ms},
                   {"galerkin_ms", m_stats.galerkin_ms},

@@ -22,13 +22,16 @@ std::vector<std::string> matrix_update_names();
 struct FmgParams {
   /// Symmetric Gauss-Seidel sweeps per smoothing (pre_smooth on the way down, post_smooth on the way up), Chebyshev
   /// acceleration of the sweeps, used both for the nonlinear levels and inside the linear sub-V-cycles.
-  MultigridParams multigrid{3, 3, false, true};
+  MultigridParams multigrid{3, 3, true, true};
   MatrixUpdate matrix_update = MatrixUpdate::Cycle;
+  /// With `cycle` (or `direction`) updates: a direction whose accepted step is below this fraction of the
+  /// quadratic model's step triggers a matrix update before the next direction. 0 = only at cycle starts (§4.2.1).
+  double refresh_below = 0.25;
   /// Levels, counted from the finest, on which every smoothed correction is its own search direction and the
   /// nonlinear residual is recomputed on the finest level after it (Wang 2018 §4.2.2, Fig. 7); below them the
   /// rest of each V-cycle runs as linear multigrid and gives one direction (Theorem 4.2). 0: every V-cycle is one
   /// linear direction; >= the number of levels: every level is nonlinear.
-  int residual_levels = 2;
+  int residual_levels = 0;
   /// Only the single finest level's smoother (no coarse levels): nonlinear multi-color Gauss-Seidel, the
   /// "Gauss-Seidel with Chebyshev acceleration" baseline of Fig. 4 and of Projective Dynamics (Wang 2015,
   /// Fratarcangeli 2016). Then one iteration is one smoothing of pre_smooth sweeps.
@@ -75,6 +78,7 @@ class NonlinearFMG final : public NonlinearSolver {
     long rejected = 0;           ///< directions the line search could not accept
     long energy_evals = 0;       ///< line-search energy evaluations
     long matrix_updates = 0;
+    long refreshes = 0;          ///< matrix updates within a cycle (refresh_below)
     double rows_relaxed = 0.0;   ///< block-row relaxations done by the smoothers of nonlinear levels
     double rows_skipped = 0.0;   ///< and skipped by the adaptive mask
     double assembly_ms = 0.0, galerkin_ms = 0.0, smoothing_ms = 0.0, linear_ms = 0.0, transfer_ms = 0.0,
