@@ -107,7 +107,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
   double e = obj.value(x);
   obj.gradient(x, g);
   double gnorm = g.norm();
-  if (!std::isfinite(e) || !std::isfinite(gnorm)) throw SolveError("fas: non-finite energy or gradient at the start");
+  check_finite("fas", e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
@@ -115,21 +115,13 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
   int k = 0;
   const VecX none;
   for (; k < stop.max_iters; ++k) {
-    if (gnorm <= target) {
-      rep.status = "converged";
-      break;
-    }
-    if (timer.seconds() > stop.max_seconds) {
-      rep.status = "time_limit";
-      break;
-    }
+    if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
     const double e_before = e;
     cycle(0, x, none);
     e = obj.value(x);
     obj.gradient(x, g);
     gnorm = g.norm();
-    if (!std::isfinite(e) || !std::isfinite(gnorm))
-      throw SolveError(fmt::format("fas: solver diverged: non-finite energy or gradient in cycle {}", k + 1));
+    check_finite("fas", e, gnorm, k + 1);
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
     logger().debug("fas cycle {:3d}: E = {:.12e}  |g| = {:.3e}", k + 1, e, gnorm);
     if (!(e < e_before) && gnorm > target) {
@@ -141,12 +133,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
       throw SolveError(fmt::format("fas: a V-cycle did not decrease the energy in cycle {} (|g| = {:.3e})", k + 1, gnorm));
     }
   }
-  if (rep.status == "max_iters" && gnorm <= target) rep.status = "converged";
-  rep.iterations = k;
-  rep.converged = rep.status == "converged";
-  rep.energy = e;
-  rep.grad_norm = gnorm;
-  rep.wall_ms = timer.ms();
+  finish_report(rep, k, e, gnorm, target, timer.ms());
   return rep;
 }
 

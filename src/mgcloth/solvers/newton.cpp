@@ -12,12 +12,6 @@ Newton::Newton(NewtonParams params) : m_params(std::move(params)) {
     m_linear = make_newton_linear_solver(m_params.linear, {}, linalg::BlockMatrix3());
 }
 
-namespace {
-void check_finite(double e, double gnorm, int iter) {
-  if (!std::isfinite(e) || !std::isfinite(gnorm))
-    throw SolveError(fmt::format("solver diverged: non-finite {} at iteration {}", std::isfinite(e) ? "gradient" : "energy", iter));
-}
-}  // namespace
 
 SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   const physics::Objective& obj = *problem.objective;
@@ -27,7 +21,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   double e = obj.value(x);
   obj.gradient(x, g);
   double gnorm = g.norm();
-  check_finite(e, gnorm, 0);
+  check_finite(m_name, e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
@@ -49,14 +43,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   rep.status = "max_iters";
   int k = 0;
   for (; k < stop.max_iters; ++k) {
-    if (gnorm <= target) {
-      rep.status = "converged";
-      break;
-    }
-    if (timer.seconds() > stop.max_seconds) {
-      rep.status = "time_limit";
-      break;
-    }
+    if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
     const double forcing = m_params.linear.rel_tol > 0.0 ? m_params.linear.rel_tol
                                                           : std::min(0.01, gnorm / rep.initial_grad_norm);
     bool factored = false;
@@ -105,7 +92,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       e = obj.value(x);
       obj.gradient(x, g);
       gnorm = g.norm();
-      check_finite(e, gnorm, k + 1);
+      check_finite(m_name, e, gnorm, k + 1);
       if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
       continue;
     }
@@ -128,7 +115,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       g.swap(g_trial);
       gnorm = gn;
       e = obj.value(x);
-      check_finite(e, gnorm, k + 1);
+      check_finite(m_name, e, gnorm, k + 1);
       if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
       continue;
     }
@@ -147,16 +134,11 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     e = ls.energy;
     obj.gradient(x, g);
     gnorm = g.norm();
-    check_finite(e, gnorm, k + 1);
+    check_finite(m_name, e, gnorm, k + 1);
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), ls.alpha});
     logger().debug("newton {:3d}: E = {:.12e}  |g| = {:.3e}  alpha = {:.3g}  shift = {:.2e}  dE/model = {:.3f}", k + 1, e, gnorm, ls.alpha, shift, decrease / (-0.5 * slope * ls.alpha));
   }
-  if (k == stop.max_iters && gnorm <= target) rep.status = "converged";
-  rep.iterations = k;
-  rep.converged = rep.status == "converged";
-  rep.energy = e;
-  rep.grad_norm = gnorm;
-  rep.wall_ms = timer.ms();
+  finish_report(rep, k, e, gnorm, target, timer.ms());
   return rep;
 }
 

@@ -38,12 +38,6 @@ std::vector<NonlinearFMG::Stage> NonlinearFMG::schedule(Index L) const {
   return out;
 }
 
-namespace {
-void check_finite(double e, double gnorm, int cycle) {
-  if (!std::isfinite(e) || !std::isfinite(gnorm))
-    throw SolveError(fmt::format("solver diverged: non-finite {} in cycle {}", std::isfinite(e) ? "gradient" : "energy", cycle));
-}
-}  // namespace
 
 SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   const physics::Objective& obj = *problem.objective;
@@ -72,7 +66,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   }
   r = -g;
   double gnorm = g.norm();
-  check_finite(e, gnorm, 0);
+  check_finite(m_name, e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
@@ -310,14 +304,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   int k = 0;
   bool done = false, force_update = false;
   for (; k < stop.max_iters && !done; ++k) {
-    if (gnorm <= target) {
-      rep.status = "converged";
-      break;
-    }
-    if (timer.seconds() > stop.max_seconds) {
-      rep.status = "time_limit";
-      break;
-    }
+    if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
     const bool per_solve = m_params.matrix_update == MatrixUpdate::Step || m_params.matrix_update == MatrixUpdate::Constant;
     if (!m_have_matrix || !per_solve || k == 0 || force_update) update_matrix();
     const bool fresh_matrix = !per_solve || k == 0 || force_update;
@@ -335,7 +322,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
       model_poor = false;
       stale = direction(st);
       if (stale) ++moved;
-      check_finite(e, gnorm, k + 1);
+      check_finite(m_name, e, gnorm, k + 1);
       if (gnorm <= target) {
         rep.status = "converged";
         done = true;
@@ -368,12 +355,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
                                    m_name, k + 1, gnorm, gnorm / rep.initial_grad_norm));
     }
   }
-  if (rep.status == "max_iters" && gnorm <= target) rep.status = "converged";
-  rep.iterations = k;
-  rep.converged = rep.status == "converged";
-  rep.energy = e;
-  rep.grad_norm = gnorm;
-  rep.wall_ms = timer.ms();
+  finish_report(rep, k, e, gnorm, target, timer.ms());
   // Relaxations inside the linear V-cycles (counted only when the adaptive smoother is on).
   m_stats.rows_relaxed += m_mg->rows_active();
   m_stats.rows_skipped += m_mg->rows_total() - m_mg->rows_active();

@@ -73,4 +73,12 @@ class NonlinearSolver {
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
 };
 
+/// Pieces every iterative solver shares.
+/// Throws SolveError when the energy or the gradient norm is not finite (the solve diverged).
+void check_finite(const std::string& solver, double energy, double grad_norm, int iteration);
+/// The stopping tests at the top of an iteration: sets report.status and returns true when the solve stops.
+bool should_stop(double grad_norm, double target, double seconds, const Stop& stop, SolveReport& report);
+/// The report's final fields (a solve that ran out of iterations exactly at the target counts as converged).
+void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms);
+
 }  // namespace mgcloth::solvers

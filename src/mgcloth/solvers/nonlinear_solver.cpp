@@ -1,0 +1,30 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+#include <cmath>
+
+namespace mgcloth::solvers {
+
+void check_finite(const std::string& solver, double energy, double grad_norm, int iteration) {
+  if (!std::isfinite(energy) || !std::isfinite(grad_norm))
+    throw SolveError(fmt::format("{}: solver diverged: non-finite {} at iteration {}", solver,
+                                 std::isfinite(energy) ? "gradient" : "energy", iteration));
+}
+
+bool should_stop(double grad_norm, double target, double seconds, const Stop& stop, SolveReport& report) {
+  if (grad_norm <= target) report.status = "converged";
+  else if (seconds > stop.max_seconds) report.status = "time_limit";
+  else return false;
+  return true;
+}
+
+void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms) {
+  if (report.status == "max_iters" && grad_norm <= target) report.status = "converged";
+  report.iterations = iterations;
+  report.converged = report.status == "converged";
+  report.energy = energy;
+  report.grad_norm = grad_norm;
+  report.wall_ms = wall_ms;
+}
+
+}  // namespace mgcloth::solvers
