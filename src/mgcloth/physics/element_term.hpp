@@ -28,7 +28,7 @@ class ElementTerm : public Term {
   virtual double element(Index e, const Local& xe, Local* g, LocalHessian* H) const = 0;
   /// A positive semi-definite approximation of element e's Hessian: by default the exact Hessian with its negative
   /// eigenvalues clamped. Terms with a closed-form PSD part override it: an eigendecomposition per element costs
-  /// 10-15x the exact Hessian and would dominate every solver's assembly.
+  /// 10-35x the exact Hessian and would dominate every solver's assembly (bench/RESULTS.md, mgcloth_bench_assembly).
   virtual void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
     Local g;
     element(e, xe, &g, &H);

@@ -13,6 +13,13 @@ TriangleRest triangle_rest(const mesh::TriMesh& mesh, Index t) {
   return {dm.inverse(), 0.5 * det};
 }
 
+std::vector<TriangleRest> triangle_rests(const mesh::TriMesh& mesh) {
+  std::vector<TriangleRest> rest;
+  rest.reserve(mesh.tris.size());
+  for (Index t = 0; t < mesh.num_triangles(); ++t) rest.push_back(triangle_rest(mesh, t));
+  return rest;
+}
+
 double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, double lambda, Vec9* g, Mat9* H,
                      bool clamp_stress) {
   Eigen::Matrix<double, 3, 2> ds;
@@ -55,19 +62,12 @@ double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, d
 
 StVKMembrane::StVKMembrane(const mesh::TriMesh& mesh, const Material& m)
     : m_thickness(m.thickness), m_mu(m.mu()), m_lambda(m.lambda_plane_stress()) {
-  std::vector<Element> els(mesh.tris.begin(), mesh.tris.end());
-  m_dm_inv.resize(els.size());
-  m_area.resize(els.size());
-  for (size_t t = 0; t < els.size(); ++t) {
-    const TriangleRest rest = triangle_rest(mesh, static_cast<Index>(t));
-    m_dm_inv[t] = rest.dm_inv;
-    m_area[t] = rest.area;
-  }
-  set_elements(std::move(els), mesh.num_vertices());
+  m_rest = triangle_rests(mesh);
+  set_elements(std::vector<Element>(mesh.tris.begin(), mesh.tris.end()), mesh.num_vertices());
 }
 
 double StVKMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
-  return stvk_triangle(xe, m_dm_inv[e], m_area[e] * m_thickness, m_mu, m_lambda, g, H);
+  return stvk_triangle(xe, m_rest[e].dm_inv, m_rest[e].area * m_thickness, m_mu, m_lambda, g, H);
 }
 
 MassSpringMembrane::MassSpringMembrane(const mesh::TriMesh& mesh, const mesh::Topology& topo, const Material& m) {
@@ -86,7 +86,7 @@ MassSpringMembrane::MassSpringMembrane(const mesh::TriMesh& mesh, const mesh::To
 }
 
 void StVKMembrane::element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
-  stvk_triangle(xe, m_dm_inv[e], m_area[e] * m_thickness, m_mu, m_lambda, nullptr, &H, true);
+  stvk_triangle(xe, m_rest[e].dm_inv, m_rest[e].area * m_thickness, m_mu, m_lambda, nullptr, &H, true);
 }
 
 double MassSpringMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {

@@ -15,6 +15,8 @@ struct TriangleRest {
   double area = 0.0;
 };
 TriangleRest triangle_rest(const mesh::TriMesh& mesh, Index t);
+/// triangle_rest of every triangle, in order.
+std::vector<TriangleRest> triangle_rests(const mesh::TriMesh& mesh);
 
 /// St. Venant-Kirchhoff energy of one triangle: W = A·t·(μ tr(E²) + λ/2 tr(E)²), with the deformation gradient
 /// F = [x1−x0, x2−x0] Dm⁻¹ (3x2), Green strain E = (FᵀF − I)/2 and plane-stress Lamé parameters.
@@ -35,8 +37,7 @@ class StVKMembrane final : public ElementTerm<3> {
   void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
 
  private:
-  std::vector<Mat2> m_dm_inv;
-  std::vector<double> m_area;
+  std::vector<TriangleRest> m_rest;
   double m_thickness, m_mu, m_lambda;
 };
 

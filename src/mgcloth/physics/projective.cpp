@@ -60,19 +60,12 @@ PDStrainMembrane::PDStrainMembrane(const mesh::TriMesh& mesh, const Material& m)
     : m_weight(2.0 * m.mu() * m.thickness), m_sigma_min(m.pd_strain_min), m_sigma_max(m.pd_strain_max) {
   if (!(m_sigma_min >= 0.0 && m_sigma_min <= 1.0 && m_sigma_max >= 1.0))
     throw_input_error("strain limits [{}, {}] must satisfy 0 <= min <= 1 <= max", m_sigma_min, m_sigma_max);
-  std::vector<Element> els(mesh.tris.begin(), mesh.tris.end());
-  m_dm_inv.resize(els.size());
-  m_area.resize(els.size());
-  for (size_t t = 0; t < els.size(); ++t) {
-    const TriangleRest rest = triangle_rest(mesh, static_cast<Index>(t));
-    m_dm_inv[t] = rest.dm_inv;
-    m_area[t] = rest.area;
-  }
-  set_elements(std::move(els), mesh.num_vertices());
+  m_rest = triangle_rests(mesh);
+  set_elements(std::vector<Element>(mesh.tris.begin(), mesh.tris.end()), mesh.num_vertices());
 }
 
 double PDStrainMembrane::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
-  return pd_strain_triangle(xe, m_dm_inv[e], m_weight * m_area[e], m_sigma_min, m_sigma_max, g, H);
+  return pd_strain_triangle(xe, m_rest[e].dm_inv, m_weight * m_rest[e].area, m_sigma_min, m_sigma_max, g, H);
 }
 
 PDObstacleContact::PDObstacleContact(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params,

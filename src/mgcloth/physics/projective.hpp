@@ -49,8 +49,7 @@ class PDStrainMembrane final : public ElementTerm<3> {
   double weight() const { return m_weight; }
 
  private:
-  std::vector<Mat2> m_dm_inv;
-  std::vector<double> m_area;
+  std::vector<TriangleRest> m_rest;
   double m_weight, m_sigma_min, m_sigma_max;
 };
 

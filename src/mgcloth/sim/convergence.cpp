@@ -364,6 +364,7 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     summary.final_rel_grad = rel_grad_of(report);
     summary.seconds = report.wall_ms / 1e3;
     summary.status = report.status;
+    summary.counters = report.counters;
     for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
     logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
                   summary.seconds, summary.status, summary.final_error);
@@ -404,6 +405,8 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
   for (const auto& s : result.summaries) {
     Json time_to = Json::object();
     for (size_t l = 0; l < kErrorLevels.size(); ++l) time_to[level_key(kErrorLevels[l])] = number_or_null(s.time_to[l]);
+    Json counters = Json::object();
+    for (const auto& [name, value] : s.counters) counters[name] = number_or_null(value);
     solvers.push_back({{"solver", s.solver},
                        {"form", s.form},
                        {"iterations", s.iterations},
@@ -412,7 +415,8 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
                        {"status", s.status},
                        {"final_error", number_or_null(s.final_error)},
                        {"final_rel_grad", s.final_rel_grad},
-                       {"time_to", time_to}});
+                       {"time_to", time_to},
+                       {"counters", counters}});
   }
   Json specs = Json::array();
   for (const auto& s : opt.solvers) specs.push_back({{"label", s.label}, {"name", s.config.name}, {"params", s.config.params}});

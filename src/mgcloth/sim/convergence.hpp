@@ -101,6 +101,8 @@ struct SolverSummary {
   double warmup_seconds = 0.0;  ///< the untimed one-iteration warm-up (set-up that is reused across steps)
   std::string status;
   std::array<std::optional<double>, kErrorLevels.size()> time_to{};  ///< first wall_s with error <= level
+  /// The timed run's solver counters (SolveReport::counters: time per phase, line-search evaluations, …).
+  std::vector<std::pair<std::string, double>> counters;
 };
 
 struct ConvergenceResult {

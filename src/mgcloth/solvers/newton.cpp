@@ -49,14 +49,8 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     bool factored = false;
     if (m_params.constant_matrix) {
       // Projective Dynamics: the prefactored global matrix, refactored only when it changed.
-      bool changed = !m_have_constant;
-      if (m_have_constant && k == 0) {
-        obj.hessian(x, m_scratch, false);
-        changed = m_scratch.blocks() != m_hessian.blocks();
-        if (changed) std::swap(m_hessian, m_scratch);
-      } else if (!m_have_constant) {
-        obj.hessian(x, m_hessian, false);
-      }
+      const bool changed = (k == 0 || !m_have_constant) &&
+                           update_constant_matrix(obj, x, m_have_constant, false, m_hessian, m_scratch);
       if (changed && !m_linear->compute(m_hessian, 0.0))
         throw SolveError(fmt::format("{}: the global matrix is not positive definite", m_name));
       m_have_constant = true;

@@ -75,11 +75,10 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   bool have_s = false, as_stale = false, model_poor = false;
   const auto update_matrix = [&] {
     Timer t;
-    if (m_params.matrix_update == MatrixUpdate::Constant && m_have_matrix) {
-      obj.hessian(x, m_scratch, m_params.project_psd);
+    if (m_params.matrix_update == MatrixUpdate::Constant) {
+      const bool changed = update_constant_matrix(obj, x, m_have_matrix, m_params.project_psd, m_A, m_scratch);
       m_stats.assembly_ms += t.ms();
-      if (m_scratch.blocks() == m_A.blocks()) return;  // unchanged (e.g. the same contact set): keep the factors
-      std::swap(m_A, m_scratch);
+      if (!changed) return;  // e.g. the same contact set: keep the hierarchy and its factors
     } else {
       obj.hessian(x, m_A, m_params.project_psd);
       m_stats.assembly_ms += t.ms();

@@ -18,6 +18,18 @@ bool should_stop(double grad_norm, double target, double seconds, const Stop& st
   return true;
 }
 
+bool update_constant_matrix(const physics::Objective& objective, const VecX& x, bool have, bool project_psd,
+                            linalg::BlockMatrix3& A, linalg::BlockMatrix3& scratch) {
+  if (!have) {
+    objective.hessian(x, A, project_psd);
+    return true;
+  }
+  objective.hessian(x, scratch, project_psd);
+  if (scratch.blocks() == A.blocks()) return false;
+  std::swap(A, scratch);
+  return true;
+}
+
 void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms) {
   if (report.status == "max_iters" && grad_norm <= target) report.status = "converged";
   report.iterations = iterations;

@@ -78,6 +78,11 @@ class NonlinearSolver {
 void check_finite(const std::string& solver, double energy, double grad_norm, int iteration);
 /// The stopping tests at the top of an iteration: sets report.status and returns true when the solve stops.
 bool should_stop(double grad_norm, double target, double seconds, const Stop& stop, SolveReport& report);
+/// For an objective whose Hessian does not depend on x (the Projective Dynamics matrix): assembles it into A on
+/// first use (`have` false); later calls reassemble into `scratch` and swap it in only when it differs (the contact
+/// active set changed). Returns whether A changed, i.e. whether factorizations of it must be redone.
+bool update_constant_matrix(const physics::Objective& objective, const VecX& x, bool have, bool project_psd,
+                            linalg::BlockMatrix3& A, linalg::BlockMatrix3& scratch);
 /// The report's final fields (a solve that ran out of iterations exactly at the target counts as converged).
 void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms);
 
