@@ -227,8 +227,12 @@ int run_convergence_command() {
                                   result.cloth, result.vertices, result.step, result.start_state,
                                   result.start_state == "simulated" ? " with " + result.warmup_solver : "");
   for (const auto& r : result.references)
-    table += fmt::format("E* ({}) = {:.12e} by {}: {} iterations, relative gradient {:.1e} ({})\n", r.form, r.energy,
-                         r.solver, r.iterations, r.rel_grad, r.status);
+    table += fmt::format("E* ({}) = {:.12e} by {}{}: {} iterations, relative gradient {:.1e} ({})\n", r.form, r.energy,
+                         r.solver,
+                         r.polished_from.empty()
+                             ? std::string()
+                             : fmt::format(" from {}'s final iterate (from x0: {:.12e})", r.polished_from, r.unpolished_energy),
+                         r.iterations, r.rel_grad, r.status);
   size_t width = 6;
   for (const auto& s : result.summaries) width = std::max(width, s.solver.size());
   table += fmt::format("{:<{}}  {:<10}  {:>10}  {:>8}  {:>8}  {:>8}  {:>8}  {:>11}  {}\n", "solver", width, "form",

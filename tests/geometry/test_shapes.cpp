@@ -221,3 +221,25 @@ TEST(Capsule, RejectsBadParameters) {
 
 }  // namespace
 }  // namespace mgcloth::geometry
+
+namespace mgcloth::geometry {
+namespace {
+
+// The cheap distance() that contact terms test first must be exactly eval().phi everywhere: in and out, near
+// edges and corners, on capsule caps and beside the segment, and on the axes where the gradient has fallbacks.
+TEST(Shapes, DistanceEqualsEvalPhi) {
+  const Plane plane;
+  const Sphere sphere(0.3);
+  const Box box(Vec3(0.2, 0.4, 0.1));
+  const Capsule capsule(0.15, 0.35);
+  const Capsule ball(0.15, 0.0);
+  std::mt19937 rng(7);
+  std::vector<Vec3> points{Vec3::Zero(), Vec3(0, 0, 0.35), Vec3(0, 0, -1), Vec3(0.2, 0.4, 0.1), Vec3(0.2, 0, 0)};
+  for (int i = 0; i < 2000; ++i) points.push_back(random_point(rng, 1.0));
+  for (const Shape* shape : std::initializer_list<const Shape*>{&plane, &sphere, &box, &capsule, &ball})
+    for (const Vec3& p : points)
+      EXPECT_NEAR(shape->distance(p), shape->eval(p).phi, 1e-15) << shape->type() << " at " << p.transpose();
+}
+
+}  // namespace
+}  // namespace mgcloth::geometry

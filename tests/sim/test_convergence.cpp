@@ -194,10 +194,21 @@ TEST(Convergence, TinyStepConvergesFromTheSameStartAndCachesItsState) {
   EXPECT_EQ(b.start_state, "cache");
   EXPECT_EQ(b.references[0].initial_energy, a.references[0].initial_energy);
   EXPECT_EQ(b.references[0].energy, a.references[0].energy);
+  // E* came from the reference cache (the solve is not repeated: its recorded time is the first run's).
+  EXPECT_TRUE(fs::exists(cache.string() + ".references"));
+  EXPECT_EQ(b.references[0].seconds, a.references[0].seconds);
+  EXPECT_EQ(b.references[0].iterations, a.references[0].iterations);
+  // A stricter reference is another key: solved again, and both stay cached.
+  opt.reference_rel_grad = 1e-11;
+  const auto b2 = sim::run_convergence(scene, opt);
+  EXPECT_NE(b2.references[0].seconds, a.references[0].seconds);
+  opt.reference_rel_grad = 1e-10;
+  EXPECT_EQ(sim::run_convergence(scene, opt).references[0].seconds, a.references[0].seconds);
   // Another vertex count does not match the cached state.
   const auto c = sim::run_convergence(tiny_scene(100), opt);
   EXPECT_EQ(c.start_state, "simulated");
   fs::remove(cache);
+  fs::remove(cache.string() + ".references");
 }
 
 TEST(Convergence, BadOptionsFailBeforeSimulating) {

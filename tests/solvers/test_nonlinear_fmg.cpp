@@ -71,6 +71,7 @@ TEST(NonlinearFmg, ScheduleInterleavesSmallAndLargeVCycles) {
   auto s = make_step(900);
   ASSERT_EQ(s.h.num_levels(), 3);
   solvers::FmgParams p;
+  p.interleave = true;
   p.residual_levels = 2;
   solvers::NonlinearFMG fmg(p);
   VecX x;
@@ -81,6 +82,16 @@ TEST(NonlinearFmg, ScheduleInterleavesSmallAndLargeVCycles) {
   solvers::NonlinearFMG linear(p);
   run(linear, s, x, 0.0, 1);
   EXPECT_EQ(linear.stats().directions, 3);
+  // Not interleaved (the default): only the V-cycle from the finest level, 5 directions with the nonlinear residual
+  // on the 2 finest levels (smooth 0, smooth 1, coarse, smooth 1, smooth 0), 1 without.
+  p.interleave = false;
+  solvers::NonlinearFMG plain(p);
+  run(plain, s, x, 0.0, 1);
+  EXPECT_EQ(plain.stats().directions, 1);
+  p.residual_levels = 2;
+  solvers::NonlinearFMG plain_nonlinear(p);
+  run(plain_nonlinear, s, x, 0.0, 1);
+  EXPECT_EQ(plain_nonlinear.stats().directions, 5);
 }
 
 TEST(NonlinearFmg, EverySolverReachesNewtonsMinimizer) {
@@ -95,6 +106,7 @@ TEST(NonlinearFmg, EverySolverReachesNewtonsMinimizer) {
   const std::vector<Case> cases = {
       {"fmg", Json::object(), 200},
       {"fmg", {{"momentum", false}}, 400},
+      {"fmg", {{"interleave", true}}, 200},
       {"fmg", {{"residual_levels", 0}}, 400},
       {"fmg", {{"residual_levels", 10}, {"matrix_update", "step"}}, 1000},
       {"fmg", {{"matrix_update", "direction"}}, 200},

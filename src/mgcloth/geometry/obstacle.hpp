@@ -19,6 +19,8 @@ struct Obstacle {
   /// Same at a pose computed once (motion->pose(t)), for evaluating many points at one time:
   /// phi(p) = phi_local(Rᵀ(p - c)), grad = R grad_local, H = R H_local Rᵀ.
   SdfSample sdf(const Vec3& p, const Pose& pose) const;
+  /// phi alone at a pose (no derivatives), the cheap test before sdf().
+  double distance(const Vec3& p, const Pose& pose) const { return shape->distance(pose.to_local(p)); }
 };
 
 }  // namespace mgcloth::geometry

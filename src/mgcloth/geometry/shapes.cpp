@@ -1,6 +1,7 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/geometry/shapes.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::geometry {
@@ -35,11 +36,15 @@ SdfSample Plane::eval(const Vec3& p) const {
   return s;
 }
 
+double Plane::distance(const Vec3& p) const { return p.z(); }
+
 Sphere::Sphere(double radius) : m_radius(radius) {
   if (!is_positive_finite(radius)) throw_input_error("sphere: radius must be positive and finite (got {})", radius);
 }
 
 SdfSample Sphere::eval(const Vec3& p) const { return point_distance(p, m_radius, Vec3::UnitZ()); }
+
+double Sphere::distance(const Vec3& p) const { return p.norm() - m_radius; }
 
 Box::Box(const Vec3& half_extents) : m_half(half_extents) {
   for (int i = 0; i < 3; ++i) {
@@ -73,6 +78,11 @@ SdfSample Box::eval(const Vec3& p) const {
   return s;
 }
 
+double Box::distance(const Vec3& p) const {
+  const Vec3 q = p.cwiseAbs() - m_half;
+  return q.maxCoeff() <= 0.0 ? q.maxCoeff() : q.cwiseMax(0.0).norm();
+}
+
 Capsule::Capsule(double radius, double half_length) : m_radius(radius), m_half_length(half_length) {
   if (!is_positive_finite(radius)) throw_input_error("capsule: radius must be positive and finite (got {})", radius);
   if (!std::isfinite(half_length) || half_length < 0.0) {
@@ -99,6 +109,11 @@ SdfSample Capsule::eval(const Vec3& p) const {
   s.grad = v / r;
   s.hess = (Mat3(Vec3(1.0, 1.0, 0.0).asDiagonal()) - s.grad * s.grad.transpose()) / r;
   return s;
+}
+
+double Capsule::distance(const Vec3& p) const {
+  const double z = std::clamp(p.z(), -m_half_length, m_half_length);
+  return (p - Vec3(0.0, 0.0, z)).norm() - m_radius;
 }
 
 }  // namespace mgcloth::geometry

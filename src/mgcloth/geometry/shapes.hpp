@@ -18,6 +18,8 @@ class Shape {
  public:
   virtual ~Shape() = default;
   virtual SdfSample eval(const Vec3& p) const = 0;
+  /// phi alone: contact terms test every vertex each evaluation and need derivatives only for the few in contact.
+  virtual double distance(const Vec3& p) const { return eval(p).phi; }
   virtual std::string type() const = 0;
 };
 
@@ -25,6 +27,7 @@ class Shape {
 class Plane final : public Shape {
  public:
   SdfSample eval(const Vec3& p) const override;
+  double distance(const Vec3& p) const override;
   std::string type() const override { return "plane"; }
 };
 
@@ -32,6 +35,7 @@ class Sphere final : public Shape {
  public:
   explicit Sphere(double radius);
   SdfSample eval(const Vec3& p) const override;
+  double distance(const Vec3& p) const override;
   std::string type() const override { return "sphere"; }
   double radius() const { return m_radius; }
 
@@ -44,6 +48,7 @@ class Box final : public Shape {
  public:
   explicit Box(const Vec3& half_extents);
   SdfSample eval(const Vec3& p) const override;
+  double distance(const Vec3& p) const override;
   std::string type() const override { return "box"; }
 
  private:
@@ -55,6 +60,7 @@ class Capsule final : public Shape {
  public:
   Capsule(double radius, double half_length);
   SdfSample eval(const Vec3& p) const override;
+  double distance(const Vec3& p) const override;
   std::string type() const override { return "capsule"; }
 
  private:

@@ -26,6 +26,7 @@ double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian
   if (g) g->setZero();
   if (H) H->setZero();
   for (size_t o = 0; o < obstacles().size(); ++o) {
+    if (d - obstacles()[o].distance(xe, poses()[o]) <= 0.0) continue;
     const geometry::SdfSample s = obstacles()[o].sdf(xe, poses()[o]);
     const double gap = d - s.phi;
     if (gap <= 0.0) continue;
@@ -47,6 +48,7 @@ Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& o
       bool inside = false;
       for (size_t o = 0; o < obstacles.size(); ++o) {
         const Vec3 p = x.segment<3>(3 * i);
+        if (obstacles[o].distance(p, poses[o]) >= 0.0) continue;
         const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
         if (s.phi >= 0.0) continue;
         inside = true;
@@ -71,6 +73,7 @@ void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePena
   parallel_for(n, [&](Index i) {
     const Vec3 p = x.segment<3>(3 * i);
     for (size_t o = 0; o < obstacles.size(); ++o) {
+      if (d - obstacles[o].distance(p, poses[o]) <= 0.0) continue;
       const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
       const double gap = d - s.phi;
       if (gap <= 0.0) continue;

@@ -83,7 +83,7 @@ void PDObstacleContact::set_active(const VecX& y) {
   std::vector<char> active(m_active.size(), 0);
   parallel_for(num_elements(), [&](Index i) {
     for (size_t o = 0; o < m; ++o)
-      active[static_cast<size_t>(i) * m + o] = obstacles()[o].sdf(Vec3(y.segment<3>(3 * i)), poses()[o]).phi < limit;
+      active[static_cast<size_t>(i) * m + o] = obstacles()[o].distance(Vec3(y.segment<3>(3 * i)), poses()[o]) < limit;
   }, 1024);
   if (active != m_active) {
     m_active = std::move(active);
@@ -102,6 +102,7 @@ double PDObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessi
   if (H) H->setZero();
   for (size_t o = 0; o < obstacles().size(); ++o) {
     if (H && active(i, o)) *H += w * Mat3::Identity();  // the PD matrix: the active set, not the iterate, decides
+    if (d - obstacles()[o].distance(xe, poses()[o]) <= 0.0) continue;
     const geometry::SdfSample s = obstacles()[o].sdf(xe, poses()[o]);
     const double gap = d - s.phi;
     if (gap <= 0.0) continue;

@@ -77,13 +77,95 @@ double rel_grad_of(const solvers::SolveReport& r) {
   return r.initial_grad_norm > 0.0 ? r.grad_norm / r.initial_grad_norm : 0.0;
 }
 
+/// The reference cache: E* solves are the longest part of a benchmark (minutes at 120K vertices), and a series of
+/// runs on one frozen step (Fig. 4, 6, 7) needs the same E*. It lives next to the state cache, as one JSON object
+/// per line: {"key": …, "reference": …}; the key is everything the reference depends on.
+fs::path reference_cache_file(const std::string& state_cache) { return state_cache + ".references"; }
+
+Json reference_to_json(const ReferenceEnergy& r) {
+  return {{"form", r.form},   {"solver", r.solver},       {"energy", r.energy},   {"initial_energy", r.initial_energy},
+          {"iterations", r.iterations}, {"rel_grad", r.rel_grad}, {"status", r.status}, {"reached", r.reached},
+          {"seconds", r.seconds}};
+}
+
+Json reference_report(const ReferenceEnergy& r) {
+  Json j = reference_to_json(r);
+  j["polished_from"] = r.polished_from.empty() ? Json(nullptr) : Json(r.polished_from);
+  j["unpolished_energy"] = r.polished_from.empty() ? Json(nullptr) : Json(r.unpolished_energy);
+  return j;
+}
+
+std::optional<ReferenceEnergy> load_reference(const std::string& state_cache, const Json& key) {
+  if (state_cache.empty()) return std::nullopt;
+  std::ifstream in(reference_cache_file(state_cache));
+  std::string line;
+  while (std::getline(in, line)) {
+    const Json j = Json::parse(line, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("key") || j["key"] != key || !j.contains("reference")) continue;
+    try {
+      const Json& r = j["reference"];
+      ReferenceEnergy ref;
+      ref.form = r.at("form").get<std::string>();
+      ref.solver = r.at("solver").get<std::string>();
+      ref.energy = r.at("energy").get<double>();
+      ref.initial_energy = r.at("initial_energy").get<double>();
+      ref.iterations = r.at("iterations").get<int>();
+      ref.rel_grad = r.at("rel_grad").get<double>();
+      ref.status = r.at("status").get<std::string>();
+      ref.reached = r.at("reached").get<bool>();
+      ref.seconds = r.at("seconds").get<double>();
+      return ref;
+    } catch (const Json::exception&) {
+      continue;
+    }
+  }
+  return std::nullopt;
+}
+
+void save_reference(const std::string& state_cache, const Json& key, const ReferenceEnergy& ref) {
+  if (state_cache.empty()) return;
+  const fs::path file = reference_cache_file(state_cache);
+  std::string kept;
+  {
+    std::ifstream in(file);
+    std::string line;
+    while (std::getline(in, line)) {
+      const Json j = Json::parse(line, nullptr, false);
+      if (!j.is_discarded() && j.is_object() && j.contains("key") && j["key"] != key) kept += line + "\n";
+    }
+  }
+  write_file_atomic(file, kept + Json{{"key", key}, {"reference", reference_to_json(ref)}}.dump() + "\n");
+}
+
+ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+                                const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from);
+
 /// E* of one form: the reference solver from x0 to opt.reference_rel_grad.
 ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
-                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0) {
+                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0,
+                                 const Json& state_key) {
+  const Json key = {{"state", state_key},         {"form", form_name(projective)},
+                    {"solver", spec.label},       {"rel_grad", opt.reference_rel_grad},
+                    {"max_iters", max_iters},     {"max_seconds", opt.reference_max_seconds},
+                    {"threads", opt.threads}};
+  if (auto cached = load_reference(opt.state_cache, key)) {
+    logger().info("E* ({} form) = {:.15e} read from {}", cached->form, cached->energy,
+                  reference_cache_file(opt.state_cache).string());
+    return *cached;
+  }
+  ReferenceEnergy ref = solve_reference(scene, spec, projective, max_iters, opt, state, x0, x0);
+  save_reference(opt.state_cache, key, ref);
+  return ref;
+}
+
+/// The reference solver of one form from `from` (x0, or a solver's final iterate that went below E*) to
+/// opt.reference_rel_grad; the relative gradient is measured against the one at `from`.
+ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+                                const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
   VecX start;
   solvers::Problem problem = sim->prepare_problem(0, start);
-  VecX x = x0;
+  VecX x = from;
   ReferenceEnergy ref;
   ref.form = form_name(projective);
   ref.solver = spec.label;
@@ -310,11 +392,19 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
   logger().info("{}: step {} of cloth \"{}\" ({} vertices)", scene.file, opt.step, result.cloth, result.vertices);
 
   // E* per energy form.
-  result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0));
+  result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0, key));
   if (any_projective)
     result.references.push_back(reference_energy(scene, parse_solver_spec("pd-direct"), true, opt.pd_reference_max_iters,
-                                                 opt, *state, x0));
+                                                 opt, *state, x0, key));
   const auto reference_of = [&](bool pd) -> const ReferenceEnergy& { return result.references[pd ? 1 : 0]; };
+  // The non-convex step problems (buckling cloth) have several local minima; a solver may settle in a lower one
+  // than the reference did from x0. Its final iterate is kept, per form, to polish E* after all runs.
+  struct Lowest {
+    double energy = kInf;
+    VecX x;
+    std::string solver;
+  };
+  std::array<Lowest, 2> lowest;
 
   for (size_t i = 0; i < opt.solvers.size(); ++i) {
     const SolverSpec& spec = opt.solvers[i];
@@ -356,9 +446,8 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
       result.rows.push_back({spec.label, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
                              relative_energy_error(t.energy, e0, ref.energy)});
     const double last = result.rows.back().rel_energy_error;
-    if (last < -1e-8)
-      logger().warn("{}: final energy below E* of the {} form by {:.1e} of E_0 - E* (a different minimum?)", spec.label,
-                    ref.form, -last);
+    Lowest& low = lowest[projective[i] ? 1 : 0];
+    if (trace.back().energy < low.energy) low = {trace.back().energy, x, spec.label};
     summary.iterations = report.iterations;
     summary.final_error = last;
     summary.final_rel_grad = rel_grad_of(report);
@@ -369,6 +458,36 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
                   summary.seconds, summary.status, summary.final_error);
     result.summaries.push_back(summary);
+  }
+
+  // E* polished: where a solver ended below the reference's minimum, the reference solver continues from that
+  // iterate to the same tolerance, and the lower of the two minima is E* for every solver of that form.
+  for (int f = 0; f < 2; ++f) {
+    if (static_cast<size_t>(f) >= result.references.size()) break;
+    ReferenceEnergy& ref = result.references[static_cast<size_t>(f)];
+    const Lowest& low = lowest[static_cast<size_t>(f)];
+    if (!(low.energy < ref.energy - 1e-9 * std::abs(ref.initial_energy - ref.energy))) continue;
+    logger().info("{} ended at {:.15e}, below E* of the {} form: polishing E* from its final iterate", low.solver,
+                  low.energy, ref.form);
+    ReferenceEnergy polished = solve_reference(scene, f == 1 ? parse_solver_spec("pd-direct") : elastic, f == 1,
+                                               f == 1 ? opt.pd_reference_max_iters : opt.reference_max_iters, opt,
+                                               *state, x0, low.x);
+    if (!(polished.energy < ref.energy)) continue;
+    polished.polished_from = low.solver;
+    polished.unpolished_energy = ref.energy;
+    ref = polished;
+    for (size_t i = 0; i < opt.solvers.size(); ++i) {
+      if (static_cast<int>(projective[i]) != f) continue;
+      SolverSummary& s = result.summaries[i];
+      double e0 = kNaN;
+      for (auto& row : result.rows)
+        if (row.solver == s.solver) {
+          if (row.iteration == 0) e0 = row.energy;
+          row.rel_energy_error = relative_energy_error(row.energy, e0, ref.energy);
+          s.final_error = row.rel_energy_error;
+        }
+      for (size_t l = 0; l < kErrorLevels.size(); ++l) s.time_to[l] = time_to_error(result.rows, s.solver, kErrorLevels[l]);
+    }
   }
   return result;
 }
@@ -389,18 +508,13 @@ std::string level_key(double level) { return fmt::format("{:.0e}", level); }
 
 Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
   Json refs = Json::array();
-  for (const auto& r : result.references)
-    refs.push_back({{"form", r.form},
-                    {"energy", r.energy},
-                    {"initial_energy", r.initial_energy},
-                    {"solver", r.solver},
-                    {"how", fmt::format("{} from x0 to relative gradient {:.0e}{}", r.solver, opt.reference_rel_grad,
-                                        r.reached ? "" : " (not reached: its final energy is used)")},
-                    {"iterations", r.iterations},
-                    {"rel_grad", r.rel_grad},
-                    {"status", r.status},
-                    {"reached", r.reached},
-                    {"seconds", r.seconds}});
+  for (const auto& r : result.references) {
+    Json j = reference_report(r);
+    j["how"] = fmt::format("{} from {} to relative gradient {:.0e}{}", r.solver,
+                           r.polished_from.empty() ? "x0" : r.polished_from + "'s final iterate (a lower minimum than from x0)",
+                           opt.reference_rel_grad, r.reached ? "" : " (not reached: its final energy is used)");
+    refs.push_back(std::move(j));
+  }
   Json solvers = Json::array();
   for (const auto& s : result.summaries) {
     Json time_to = Json::object();

@@ -76,6 +76,10 @@ struct ReferenceEnergy {
   std::string status;     ///< the reference solve's status
   bool reached = false;   ///< rel_grad <= ConvergenceOptions::reference_rel_grad
   double seconds = 0.0;
+  /// Set when a benchmarked solver ended below the minimum found from x0 and the reference solver, continued from
+  /// that solver's final iterate, found this lower E* (the step problems are not convex).
+  std::string polished_from;
+  double unpolished_energy = 0.0;
 };
 
 /// One iteration of one solver's timed run (a row of convergence.csv).

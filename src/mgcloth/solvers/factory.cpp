@@ -54,6 +54,7 @@ FmgParams read_fmg(JsonReader& r, FmgParams p) {
     p.multigrid.pre_smooth = r.integer("pre_smooth", p.multigrid.pre_smooth, 0, 100);
     p.multigrid.post_smooth = r.integer("post_smooth", p.multigrid.post_smooth, 0, 100);
     p.residual_levels = r.integer("residual_levels", p.residual_levels, 0, 100);
+    p.interleave = r.boolean("interleave", p.interleave);
     p.multigrid.chebyshev = r.boolean("chebyshev_smoothing", p.multigrid.chebyshev);
   }
   p.matrix_update = matrix_update_from_string(r.choice("matrix_update", to_string(p.matrix_update), matrix_update_names()));
@@ -75,6 +76,7 @@ Json write_fmg(const FmgParams& p) {
     j["pre_smooth"] = p.multigrid.pre_smooth;
     j["post_smooth"] = p.multigrid.post_smooth;
     j["residual_levels"] = p.residual_levels;
+    j["interleave"] = p.interleave;
     j["chebyshev_smoothing"] = p.multigrid.chebyshev;
   }
   j["matrix_update"] = to_string(p.matrix_update);

@@ -29,7 +29,7 @@ std::vector<NonlinearFMG::Stage> NonlinearFMG::schedule(Index L) const {
   if (m_params.single_level) return {{0, Move::Smooth, pre}};
   std::vector<Stage> out;
   // One V-cycle from every level, coarsest first (Fig. 2b with one V-cycle per level, §4.2.1).
-  for (Index top = L - 1; top >= 0; --top) {
+  for (Index top = m_params.interleave ? L - 1 : 0; top >= 0; --top) {
     const Index linear_from = std::max<Index>(top, std::min<Index>(m_params.residual_levels, L - 1));
     for (Index h = top; h < linear_from; ++h) out.push_back({h, Move::Smooth, pre});
     out.push_back({linear_from, Move::Linear, 0});

@@ -32,6 +32,11 @@ struct FmgParams {
   /// rest of each V-cycle runs as linear multigrid and gives one direction (Theorem 4.2). 0: every V-cycle is one
   /// linear direction; >= the number of levels: every level is nonlinear.
   int residual_levels = 0;
+  /// Interleave small and large V-cycles (§4.2.1): each FMG cycle runs one V-cycle from every level, coarsest
+  /// first. false (default, beyond the paper): one V-cycle from the finest level per cycle, as in Fig. 2a. On the
+  /// CPU every direction costs a fine-level line search, gradient and model product whatever level it came from,
+  /// and the small V-cycles do not earn theirs: 2x slower to 1e-3 at 10K and 40K (bench/RESULTS.md, Fig. 4).
+  bool interleave = false;
   /// Only the single finest level's smoother (no coarse levels): nonlinear multi-color Gauss-Seidel, the
   /// "Gauss-Seidel with Chebyshev acceleration" baseline of Fig. 4 and of Projective Dynamics (Wang 2015,
   /// Fratarcangeli 2016). Then one iteration is one smoothing of pre_smooth sweeps.
