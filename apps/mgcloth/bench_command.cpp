@@ -36,6 +36,7 @@ struct ConvergenceArgs {
   std::string scene, solvers, out, state_cache;
   int step = 0;
   double budget = 10.0;
+  double reference_seconds = 600.0;
   int max_iters = 10000;
   int threads = 0;
   int vertices = 0;
@@ -200,6 +201,8 @@ int run_convergence_command() {
   if (!(g_conv.budget > 0.0) || !std::isfinite(g_conv.budget))
     throw_input_error("--budget: must be a positive number of seconds (got {})", g_conv.budget);
   if (g_conv.max_iters < 1) throw_input_error("--max-iters: must be at least 1 (got {})", g_conv.max_iters);
+  if (!(g_conv.reference_seconds > 0.0) || !std::isfinite(g_conv.reference_seconds))
+    throw_input_error("--reference-seconds: must be a positive number of seconds (got {})", g_conv.reference_seconds);
   if (g_conv.threads < 0) throw_input_error("--threads: must be non-negative (got {})", g_conv.threads);
   sim::Scene scene = sim::load_scene(g_conv.scene);
   if (g_conv.vertices_option->count() > 0)
@@ -209,6 +212,7 @@ int run_convergence_command() {
   opt.solvers = specs;
   opt.budget_seconds = g_conv.budget;
   opt.max_iters = g_conv.max_iters;
+  opt.reference_max_seconds = g_conv.reference_seconds;
   opt.threads = g_conv.threads;
   opt.state_cache = g_conv.state_cache;
   for (size_t i = 0; i < specs.size(); ++i)
@@ -305,6 +309,9 @@ void add_bench_command(CLI::App& app) {
   conv->add_option("--out,-o", g_conv.out, "Output folder (created if missing)")->required();
   conv->add_option("--budget", g_conv.budget, "Wall-time budget per solver, seconds")->default_val(10.0);
   conv->add_option("--max-iters", g_conv.max_iters, "Iteration cap per solver")->default_val(10000);
+  conv->add_option("--reference-seconds", g_conv.reference_seconds,
+                   "Wall-time cap of each E* reference solve, seconds (its final energy is used when it stops)")
+      ->default_val(600.0);
   conv->add_option("--threads,-j", g_conv.threads, "Worker threads (default: the scene's)");
   g_conv.vertices_option = conv->add_option("--vertices", g_conv.vertices, "Target vertex count of every generated cloth");
   conv->add_option("--state-cache", g_conv.state_cache,

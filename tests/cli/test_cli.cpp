@@ -409,6 +409,7 @@ TEST_F(Cli, BenchRejectsBadInputWithOneLine) {
   expect_error(run(conv + " --step 0 --solvers newton"), "--step: must be at least 1");
   expect_error(run(conv + " --step 2 --solvers ,"), "--solvers");
   expect_error(run(conv + " --step 2 --solvers newton@oops"), "not key=value");
+  expect_error(run(conv + " --step 2 --solvers newton --reference-seconds 0"), "--reference-seconds: must be a positive");
   expect_error(run("bench convergence " + (dir / "absent.json").string() + out + " --step 2 --solvers newton"),
                "absent.json: no such file");
   expect_error(run("bench convergence " + scene + " --out " + scene + " --step 2 --solvers newton"), "not a folder");

@@ -287,3 +287,39 @@ TEST(Objective, SumsTermsAndAssemblesInParallelDeterministically) {
   obj.hessian(x, H2);
   for (Index k = 0; k < H1.num_blocks(); ++k) EXPECT_TRUE((H1.block(k).array() == H2.block(k).array()).all());
 }
+
+// The assembly coloring: every element exactly once; no two chunks of one color share a vertex (the race-free
+// guarantee of the parallel scatter); chunked on a coherent mesh, with few colors.
+TEST(ElementColoring, ChunksOfOneColorShareNoVertexAndCoverEveryElement) {
+  for (bool unstructured : {false, true}) {
+    mesh::RectangleSpec spec;
+    spec.target_vertices = 3000;
+    spec.unstructured = unstructured;
+    const auto m = mesh::make_rectangle(spec);
+    const auto topo = mesh::build_topology(m);
+    const Material mat;
+    const HingeBending hinge(m, topo, mat);
+    std::vector<Index> flat;
+    for (const auto& el : hinge.elements()) flat.insert(flat.end(), el.begin(), el.end());
+    for (Index chunk : {Index{0}, Index{1}, Index{7}, Index{64}}) {
+      const ElementColors c = color_elements(flat, 4, m.num_vertices(), chunk);
+      if (chunk > 0) EXPECT_EQ(c.chunk_size, chunk);
+      std::vector<int> seen(hinge.num_elements(), 0);
+      for (Index e : c.elements) ++seen[e];
+      EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](int s) { return s == 1; })) << "chunk " << chunk;
+      ASSERT_EQ(c.chunk_offsets.back(), static_cast<Index>(c.elements.size()));
+      for (Index col = 0; col < c.num_colors(); ++col) {
+        std::vector<Index> owner(m.num_vertices(), -1);  // the chunk of this color that touched the vertex
+        for (Index k = c.color_offsets[col]; k < c.color_offsets[col + 1]; ++k)
+          for (Index i = c.chunk_offsets[k]; i < c.chunk_offsets[k + 1]; ++i)
+            for (int a = 0; a < 4; ++a) {
+              Index& o = owner[flat[4 * c.elements[i] + a]];
+              EXPECT_TRUE(o == -1 || o == k) << "color " << col << ": chunks " << o << " and " << k << " share a vertex";
+              o = k;
+            }
+      }
+    }
+    EXPECT_EQ(hinge.colors().chunk_size, 64) << (unstructured ? "unstructured" : "regular") << " mesh";
+    EXPECT_LE(hinge.colors().num_colors(), 16);
+  }
+}

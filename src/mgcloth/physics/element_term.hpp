@@ -5,11 +5,25 @@
 
 namespace mgcloth::physics {
 
-/// Colors elements so that no two elements of one color share a vertex: assembling one color in parallel then
-/// writes every vertex and every block from one thread only. Deterministic (greedy in element order), and the
-/// summation order per block is fixed, so results are bitwise reproducible whatever the thread count.
-/// Elements that find no free color among the first 63 (pathological valence) go to a last, serial group.
-std::vector<std::vector<Index>> color_elements(const std::vector<Index>& flat_vertices, int arity, Index num_vertices);
+/// Elements grouped for race-free parallel assembly: chunks of consecutive elements, colored so that no two chunks
+/// of one color share a vertex. A thread assembles whole chunks, so one color writes every vertex and every block
+/// from one thread only. Chunks rather than single elements: one color's chunks then cover a fraction of the
+/// mesh and touch that fraction of the matrix, where an element-wise coloring touches every row of the matrix in
+/// every color and its assembly is memory-bound (6x slower at 120K vertices, bench/RESULTS.md).
+struct ElementColors {
+  std::vector<Index> elements;       ///< every element once, grouped by color, then by chunk
+  std::vector<Index> chunk_offsets;  ///< chunk k is elements[chunk_offsets[k], chunk_offsets[k + 1])
+  std::vector<Index> color_offsets;  ///< color c is chunks [color_offsets[c], color_offsets[c + 1])
+  Index num_colors() const { return static_cast<Index>(color_offsets.size()) - 1; }
+  Index chunk_size = 0;              ///< elements per chunk (the last chunk may be shorter)
+};
+
+/// Greedy coloring of chunks of `chunk` consecutive elements in element order (deterministic; the summation order
+/// per block is fixed by color, then element order within the one chunk that writes it, so results are bitwise
+/// reproducible whatever the thread count). Chunks that find no free color among the first 63 go to one-chunk
+/// colors of their own. With chunk = 0 the size is chosen: chunks of 64 when that needs at most 16 colors (a mesh
+/// whose element order is spatially coherent), single elements otherwise.
+ElementColors color_elements(const std::vector<Index>& flat_vertices, int arity, Index num_vertices, Index chunk = 0);
 
 /// The shared parallel assembler: a term with elements of K vertices implements element(), the value, gradient
 /// and Hessian of one element from its K local positions; value/gradient/Hessian assembly is written once here.
@@ -46,20 +60,15 @@ class ElementTerm : public Term {
   }
 
   void add_gradient(const VecX& x, VecX& g) const override {
-    for (const auto& color : m_colors) {
-      parallel_for(static_cast<Index>(color.size()), [&](Index k) {
-        const Index e = color[k];
-        Local ge = Local::Zero();
-        element(e, gather(x, e), &ge, nullptr);
-        for (int a = 0; a < K; ++a) g.template segment<3>(3 * m_elements[e][a]) += ge.template segment<3>(3 * a);
-      }, 64);
-    }
+    for_each_colored([&](Index e) {
+      Local ge = Local::Zero();
+      element(e, gather(x, e), &ge, nullptr);
+      for (int a = 0; a < K; ++a) g.template segment<3>(3 * m_elements[e][a]) += ge.template segment<3>(3 * a);
+    });
   }
 
   void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project) const override {
-    for (const auto& color : m_colors) {
-      parallel_for(static_cast<Index>(color.size()), [&](Index k) {
-        const Index e = color[k];
+    for_each_colored([&](Index e) {
         LocalHessian He = LocalHessian::Zero();
         if (project) {
           element_psd_hessian(e, gather(x, e), He);
@@ -70,9 +79,10 @@ class ElementTerm : public Term {
         const Index* slots = &m_block_slots[static_cast<size_t>(e) * K * K];
         for (int a = 0; a < K; ++a)
           for (int b = 0; b < K; ++b) H.block(slots[a * K + b]) += He.template block<3, 3>(3 * a, 3 * b);
-      }, 64);
-    }
+    });
   }
+
+  const ElementColors& colors() const { return m_colors; }
 
   void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override {
     for (const auto& el : m_elements)
@@ -99,8 +109,20 @@ class ElementTerm : public Term {
   }
 
  private:
+  /// f(e) for every element, color by color, each chunk of a color on one thread in element order.
+  template <class F>
+  void for_each_colored(F&& f) const {
+    for (Index c = 0; c < m_colors.num_colors(); ++c) {
+      const Index first = m_colors.color_offsets[c];
+      parallel_for(m_colors.color_offsets[c + 1] - first, [&](Index k) {
+        for (Index i = m_colors.chunk_offsets[first + k]; i < m_colors.chunk_offsets[first + k + 1]; ++i)
+          f(m_colors.elements[i]);
+      }, 2);
+    }
+  }
+
   std::vector<Element> m_elements;
-  std::vector<std::vector<Index>> m_colors;
+  ElementColors m_colors;
   std::vector<Index> m_block_slots;
 };
 
