@@ -159,7 +159,7 @@ ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, boo
 }
 
 /// The reference solver of one form from `from` (x0, or a solver's final iterate that went below E*) to
-/// opt.reference_rel_grad; the relative gradient is measured against the one at `from`.
+/// opt.reference_rel_grad, the gradient norm relative to the one at x0 in both cases.
 ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
@@ -170,8 +170,12 @@ ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool
   ref.form = form_name(projective);
   ref.solver = spec.label;
   ref.initial_energy = problem.objective->value(x0);
+  VecX g0;
+  problem.objective->gradient(x0, g0);
+  const double g0_norm = g0.norm();
   solvers::Stop stop;
-  stop.rel_grad = opt.reference_rel_grad;
+  stop.rel_grad = 0.0;
+  stop.abs_grad = opt.reference_rel_grad * g0_norm;
   stop.max_iters = max_iters;
   stop.max_seconds = opt.reference_max_seconds;
   Timer timer;
@@ -179,7 +183,7 @@ ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool
   ref.seconds = timer.seconds();
   ref.energy = problem.objective->value(x);
   ref.iterations = r.iterations;
-  ref.rel_grad = rel_grad_of(r);
+  ref.rel_grad = g0_norm > 0.0 ? r.grad_norm / g0_norm : 0.0;
   ref.status = r.status;
   ref.reached = ref.rel_grad <= opt.reference_rel_grad;
   if (!ref.reached)
@@ -392,11 +396,20 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
   logger().info("{}: step {} of cloth \"{}\" ({} vertices)", scene.file, opt.step, result.cloth, result.vertices);
 
   // E* per energy form.
-  result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0, key));
+  // E* per energy form that some solver minimizes: ref_index[form] is its place in result.references.
+  const bool any_elastic = std::find(projective.begin(), projective.end(), false) != projective.end();
+  std::array<int, 2> ref_index{-1, -1};
+  if (any_elastic) {
+    ref_index[0] = static_cast<int>(result.references.size());
+    result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0, key));
+  }
+  if (any_projective) ref_index[1] = static_cast<int>(result.references.size());
   if (any_projective)
     result.references.push_back(reference_energy(scene, parse_solver_spec("pd-direct"), true, opt.pd_reference_max_iters,
                                                  opt, *state, x0, key));
-  const auto reference_of = [&](bool pd) -> const ReferenceEnergy& { return result.references[pd ? 1 : 0]; };
+  const auto reference_of = [&](bool pd) -> const ReferenceEnergy& {
+    return result.references[static_cast<size_t>(ref_index[pd ? 1 : 0])];
+  };
   // The non-convex step problems (buckling cloth) have several local minima; a solver may settle in a lower one
   // than the reference did from x0. Its final iterate is kept, per form, to polish E* after all runs.
   struct Lowest {
@@ -420,17 +433,29 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
 
     // Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
     // hierarchies), so the timed run measures what every step costs.
+    // A solver that diverges is a result, not the end of the benchmark: its trace up to the failure is kept and
+    // its status says why it stopped.
+    SolverSummary summary;
+    summary.solver = spec.label;
+    summary.form = ref.form;
+    const auto diverged = [&](const SolveError& err, const solvers::Trace& so_far) {
+      logger().warn("{}: {}", spec.label, err.what());
+      summary.status = fmt::format("diverged: {}", err.what());
+      summary.iterations = so_far.empty() ? 0 : so_far.back().iteration;
+      summary.final_error = kNaN;
+    };
     Timer timer;
-    {
+    try {
       VecX x = x0;
       solvers::Stop stop;
       stop.rel_grad = kTimedRelGrad;
       stop.max_iters = 1;
       solver.minimize(problem, x, stop, nullptr);
+    } catch (const SolveError& err) {
+      diverged(err, {});
+      result.summaries.push_back(summary);
+      continue;
     }
-    SolverSummary summary;
-    summary.solver = spec.label;
-    summary.form = ref.form;
     summary.warmup_seconds = timer.seconds();
 
     VecX x = x0;
@@ -439,13 +464,32 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     stop.max_iters = opt.max_iters;
     stop.max_seconds = opt.budget_seconds;
     solvers::Trace trace;
-    const solvers::SolveReport report = solver.minimize(problem, x, stop, &trace);
-    if (trace.empty()) throw_error("{}: the solver recorded no trace", spec.label);
+    solvers::SolveReport report;
+    timer.reset();
+    bool failed = false;
+    try {
+      report = solver.minimize(problem, x, stop, &trace);
+    } catch (const SolveError& err) {
+      diverged(err, trace);
+      summary.seconds = timer.seconds();
+      failed = true;
+    }
+    if (trace.empty()) {
+      if (!failed) throw_error("{}: the solver recorded no trace", spec.label);
+      result.summaries.push_back(summary);
+      continue;
+    }
     const double e0 = trace.front().energy;
     for (const auto& t : trace)
       result.rows.push_back({spec.label, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
                              relative_energy_error(t.energy, e0, ref.energy)});
     const double last = result.rows.back().rel_energy_error;
+    if (failed) {
+      summary.final_error = last;
+      for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
+      result.summaries.push_back(summary);
+      continue;
+    }
     Lowest& low = lowest[projective[i] ? 1 : 0];
     if (trace.back().energy < low.energy) low = {trace.back().energy, x, spec.label};
     summary.iterations = report.iterations;
@@ -463,8 +507,8 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
   // E* polished: where a solver ended below the reference's minimum, the reference solver continues from that
   // iterate to the same tolerance, and the lower of the two minima is E* for every solver of that form.
   for (int f = 0; f < 2; ++f) {
-    if (static_cast<size_t>(f) >= result.references.size()) break;
-    ReferenceEnergy& ref = result.references[static_cast<size_t>(f)];
+    if (ref_index[static_cast<size_t>(f)] < 0) continue;
+    ReferenceEnergy& ref = result.references[static_cast<size_t>(ref_index[static_cast<size_t>(f)])];
     const Lowest& low = lowest[static_cast<size_t>(f)];
     if (!(low.energy < ref.energy - 1e-9 * std::abs(ref.initial_energy - ref.energy))) continue;
     logger().info("{} ended at {:.15e}, below E* of the {} form: polishing E* from its final iterate", low.solver,
