@@ -303,7 +303,9 @@ TEST(ElementColoring, ChunksOfOneColorShareNoVertexAndCoverEveryElement) {
     for (const auto& el : hinge.elements()) flat.insert(flat.end(), el.begin(), el.end());
     for (Index chunk : {Index{0}, Index{1}, Index{7}, Index{64}}) {
       const ElementColors c = color_elements(flat, 4, m.num_vertices(), chunk);
-      if (chunk > 0) EXPECT_EQ(c.chunk_size, chunk);
+      if (chunk > 0) {
+        EXPECT_EQ(c.chunk_size, chunk);
+      }
       std::vector<int> seen(hinge.num_elements(), 0);
       for (Index e : c.elements) ++seen[e];
       EXPECT_TRUE(std::all_of(seen.begin(), seen.end(), [](int s) { return s == 1; })) << "chunk " << chunk;

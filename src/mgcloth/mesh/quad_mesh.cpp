@@ -46,7 +46,6 @@ QuadMesh make_quad_grid(const QuadGridSpec& s) {
   // Vertices: corners of kept cells, numbered row by row on the extended grid of (cx + 1) × (cy + 1) points.
   const int px = cx + 1, py = cy + 1;
   std::vector<Index> id(static_cast<size_t>(px) * py, -1);
-  std::vector<char> touches_real(id.size(), 0);
   const double hx = s.width / s.nx, hy = s.height / s.ny;
   QuadMesh m;
   std::vector<Vec2> u;
@@ -63,7 +62,6 @@ QuadMesh make_quad_grid(const QuadGridSpec& s) {
         }
       if (!used) continue;
       id[static_cast<size_t>(q) * px + p] = static_cast<Index>(u.size());
-      touches_real[static_cast<size_t>(q) * px + p] = on_real;
       u.emplace_back((p - g) * hx, (q - g) * hy);
       m.ghost_vertex.push_back(on_real ? 0 : 1);
     }

@@ -9,7 +9,7 @@ namespace mgcloth::physics {
 /// of one color share a vertex. A thread assembles whole chunks, so one color writes every vertex and every block
 /// from one thread only. Chunks rather than single elements: one color's chunks then cover a fraction of the
 /// mesh and touch that fraction of the matrix, where an element-wise coloring touches every row of the matrix in
-/// every color and its assembly is memory-bound (6x slower at 120K vertices, bench/RESULTS.md).
+/// every color and its assembly is memory-bound (the whole Hessian 2.4x slower at 120K vertices, bench/RESULTS.md).
 struct ElementColors {
   std::vector<Index> elements;       ///< every element once, grouped by color, then by chunk
   std::vector<Index> chunk_offsets;  ///< chunk k is elements[chunk_offsets[k], chunk_offsets[k + 1])

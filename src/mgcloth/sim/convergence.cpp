@@ -395,7 +395,6 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
   }
   logger().info("{}: step {} of cloth \"{}\" ({} vertices)", scene.file, opt.step, result.cloth, result.vertices);
 
-  // E* per energy form.
   // E* per energy form that some solver minimizes: ref_index[form] is its place in result.references.
   const bool any_elastic = std::find(projective.begin(), projective.end(), false) != projective.end();
   std::array<int, 2> ref_index{-1, -1};
@@ -431,8 +430,6 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
       logger().warn("{}: its simulator predicts a different start point; every solver starts from the same x0", spec.label);
     solvers::NonlinearSolver& solver = sim->solver(0);
 
-    // Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
-    // hierarchies), so the timed run measures what every step costs.
     // A solver that diverges is a result, not the end of the benchmark: its trace up to the failure is kept and
     // its status says why it stopped.
     SolverSummary summary;
@@ -444,6 +441,8 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
       summary.iterations = so_far.empty() ? 0 : so_far.back().iteration;
       summary.final_error = kNaN;
     };
+    // Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
+    // hierarchies), so the timed run measures what every step costs.
     Timer timer;
     try {
       VecX x = x0;
@@ -483,22 +482,19 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     for (const auto& t : trace)
       result.rows.push_back({spec.label, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
                              relative_energy_error(t.energy, e0, ref.energy)});
-    const double last = result.rows.back().rel_energy_error;
+    summary.final_error = result.rows.back().rel_energy_error;
+    for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
     if (failed) {
-      summary.final_error = last;
-      for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
       result.summaries.push_back(summary);
       continue;
     }
     Lowest& low = lowest[projective[i] ? 1 : 0];
     if (trace.back().energy < low.energy) low = {trace.back().energy, x, spec.label};
     summary.iterations = report.iterations;
-    summary.final_error = last;
     summary.final_rel_grad = rel_grad_of(report);
     summary.seconds = report.wall_ms / 1e3;
     summary.status = report.status;
     summary.counters = report.counters;
-    for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
     logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
                   summary.seconds, summary.status, summary.final_error);
     result.summaries.push_back(summary);
