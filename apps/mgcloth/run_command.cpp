@@ -19,6 +19,7 @@ struct RunOptions {
   int frames = -1;
   std::string solver;
   int threads = 0;
+  int level = 0;
   bool resume = false;
   bool quiet = false;
   bool verbose = false;
@@ -45,6 +46,10 @@ int run() {
     scene.solver.name = g_run.solver;
   }
   if (g_run.threads > 0) scene.threads = g_run.threads;
+  if (g_run.level > 0) {
+    if (scene.shells.empty()) throw InputError("--level: the scene has no shells");
+    for (auto& sh : scene.shells) sh.level = g_run.level;
+  }
   if (!g_run.out.empty()) scene.output.dir = g_run.out;
   const std::filesystem::path dir = scene.output.dir;
 
@@ -58,11 +63,15 @@ int run() {
     rec.start(sim);
   }
   const int total = sim.scene().frames;
-  Index vertices = 0;
+  Index vertices = 0, control_points = 0;
   for (const auto& c : sim.cloths()) vertices += c->mesh().num_vertices();
+  for (const auto& sh : sim.shells()) control_points += sh->hierarchy().finest().num_vertices();
   Progress progress(total, sim.frame(), g_run.quiet);
-  progress.message(fmt::format("{}: {} cloth vertices, {} obstacles, solver {}, {} frames x {} steps of {:.4g} s -> {}{}",
-                               sim.scene().file, vertices, sim.obstacles().size(), sim.scene().solver.name, total,
+  const std::string bodies =
+      control_points > 0 ? fmt::format("{} cloth vertices, {} shell control points ({} dofs)", vertices, control_points, 3 * control_points)
+                         : fmt::format("{} cloth vertices", vertices);
+  progress.message(fmt::format("{}: {}, {} obstacles, solver {}, {} frames x {} steps of {:.4g} s -> {}{}",
+                               sim.scene().file, bodies, sim.obstacles().size(), sim.scene().solver.name, total,
                                sim.scene().substeps, sim.scene().step_size(), dir.string(),
                                g_run.resume ? fmt::format(" (resuming after frame {})", sim.frame()) : ""));
   std::signal(SIGINT, on_signal);
@@ -100,6 +109,7 @@ void add_run_command(CLI::App& app) {
   cmd->add_option("--frames,-n", g_run.frames, "Number of frames (default: the scene's frames)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--solver,-s", g_run.solver, "Solver name (overrides the scene's solver.name)");
   cmd->add_option("--threads,-j", g_run.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
+  cmd->add_option("--level", g_run.level, "Subdivision level of every shell, 1-9 (default: the scene's)")->check(CLI::Range(1, 9));
   cmd->add_flag("--resume", g_run.resume, "Continue an interrupted run in --out from its last complete frame");
   cmd->add_flag("--trace", g_run.trace, "Also write trace.csv: energy, gradient norm and wall time of every solver iteration");
   cmd->add_flag("--quiet,-q", g_run.quiet, "No progress output");

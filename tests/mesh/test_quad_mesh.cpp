@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <algorithm>
 
 namespace mgcloth::mesh {
 namespace {
@@ -99,7 +100,7 @@ TEST(QuadMesh, NotchedSquareHasGhostCellsInsideTheNotch) {
 TEST(QuadMesh, BadSpecsAreInputErrors) {
   EXPECT_THROW(make_quad_rectangle(0.0, 1.0, 4, 4), InputError);
   EXPECT_THROW(make_quad_rectangle(1.0, 1.0, 0, 4), InputError);
-  EXPECT_THROW(make_notched_square(1.0, 0.3, 4), InputError);  // 1.2 cells: not a whole number
+  EXPECT_THROW(make_notched_square(1.0, 0.3, 4, false), InputError);  // 1.2 cells need the ghost layer's lines
   EXPECT_THROW(make_notched_square(1.0, 1.0, 4), InputError);
   EXPECT_THROW(make_notched_square(1.0, -0.25, 4), InputError);
   QuadGridSpec s;
@@ -111,6 +112,61 @@ TEST(QuadMesh, BadSpecsAreInputErrors) {
   s.notch_i1 = 5;
   EXPECT_THROW(make_quad_grid(s), InputError);  // outside the grid
   EXPECT_NO_THROW(make_notched_square(1.0, 0.3, 10));  // 3 of 10 cells
+}
+
+// A notch of 1.2 cells: one notch cell, grid lines spaced so that the limit lines fall at 0.7 m.
+TEST(QuadMesh, NonWholeNotchUsesNonUniformGridLines) {
+  const QuadMesh m = make_notched_square(1.0, 0.3, 4);
+  Index real = 0;
+  for (Index f = 0; f < m.num_faces(); ++f) real += m.is_ghost_face(f) ? 0 : 1;
+  EXPECT_EQ(real, 15);
+  // (c_{i-1} + 4 c_i + c_{i+1}) / 6 at the interior lines reproduces 0.7/3, 1.4/3, 0.7.
+  std::vector<double> c;
+  for (Index v = 0; v < m.num_vertices(); ++v)
+    if (std::abs(m.u(1, v) - m.u.row(1).minCoeff()) < 1e-12) c.push_back(m.u(0, v));
+  std::sort(c.begin(), c.end());
+  ASSERT_EQ(c.size(), 7u);
+  const std::vector<double> lines{0.0, 0.7 / 3, 1.4 / 3, 0.7, 1.0};
+  for (int i = 0; i <= 4; ++i) EXPECT_NEAR((c[i] + 4 * c[i + 1] + c[i + 2]) / 6.0, lines[i], 1e-14) << i;
+}
+
+TEST(QuadMesh, GhostLayerOfAGeneralMeshMatchesTheGridGenerator) {
+  QuadMesh bare = make_quad_rectangle(2.0, 1.0, 4, 2, false);
+  add_ghost_layer(bare);
+  const QuadMesh grid = make_quad_rectangle(2.0, 1.0, 4, 2, true);
+  expect_valid(bare, 0.25);
+  EXPECT_EQ(bare.num_vertices(), grid.num_vertices());
+  EXPECT_EQ(bare.num_faces(), grid.num_faces());
+  EXPECT_EQ(bare.num_real_vertices(), grid.num_real_vertices());
+  std::set<std::pair<long, long>> a, b;
+  for (Index v = 0; v < bare.num_vertices(); ++v) {
+    a.insert({std::lround(bare.u(0, v) * 4), std::lround(bare.u(1, v) * 4)});
+    b.insert({std::lround(grid.u(0, v) * 4), std::lround(grid.u(1, v) * 4)});
+  }
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(real_boundary_edges(bare).size(), 12u);
+  QuadMesh notched = make_notched_square(1.0, 0.5, 4, false);
+  EXPECT_THROW(add_ghost_layer(notched), InputError);  // a concave corner
+}
+
+TEST(QuadMesh, ValidateNamesTheBadElement) {
+  QuadMesh m = make_quad_rectangle(1.0, 1.0, 2, 2, false);
+  m.quads[1][2] = m.quads[1][0];
+  EXPECT_THROW(validate(m, "x.obj"), InputError);
+  m = make_quad_rectangle(1.0, 1.0, 2, 2, false);
+  m.x(0, 3) = std::nan("");
+  EXPECT_THROW(validate(m, "x.obj"), InputError);
+  m = make_quad_rectangle(1.0, 1.0, 2, 2, false);
+  std::swap(m.quads[0][1], m.quads[0][3]);  // flipped orientation
+  EXPECT_THROW(validate(m, "x.obj"), InputError);
+  try {
+    m = make_quad_rectangle(1.0, 1.0, 2, 2, false);
+    m.quads[2][0] = 40;
+    validate(m, "x.obj");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("x.obj: quad 3"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

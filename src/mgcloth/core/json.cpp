@@ -128,6 +128,22 @@ Vec2 JsonReader::vec2(const std::string& key, const Vec2& fallback) {
   return {v[0], v[1]};
 }
 
+std::vector<Vec2> JsonReader::vec2s(const std::string& key) {
+  m_used.insert(key);
+  std::vector<Vec2> out;
+  if (!has(key)) return out;
+  const Json& pts = at(key);
+  if (!pts.is_array()) fail(key, "expected an array of [u, v] pairs");
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if (!pts[i].is_array() || pts[i].size() != 2 || !pts[i][0].is_number() || !pts[i][1].is_number())
+      fail(fmt::format("{}[{}]", key, i), "expected [u, v] (two numbers)");
+    const Vec2 p(pts[i][0].get<double>(), pts[i][1].get<double>());
+    if (!p.allFinite()) fail(fmt::format("{}[{}]", key, i), "must be finite");
+    out.push_back(p);
+  }
+  return out;
+}
+
 JsonReader JsonReader::object(const std::string& key) { return JsonReader(at(key), m_file, path_of(key)); }
 
 std::optional<JsonReader> JsonReader::optional_object(const std::string& key) {

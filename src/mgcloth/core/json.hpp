@@ -15,6 +15,9 @@ using Json = nlohmann::json;
 
 /// Strict, typed access to one JSON object of a user file. Every key read is marked as used; finish() rejects
 /// the keys nobody read, by their full path, so a typo never passes silently. Errors name file and JSON path.
+inline Json vec_json(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+inline Json vec_json(const Vec2& v) { return Json::array({v.x(), v.y()}); }
+
 class JsonReader {
  public:
   JsonReader(const Json& j, std::string file, std::string path = "");
@@ -37,6 +40,8 @@ class JsonReader {
   Vec3 vec3(const std::string& key, const Vec3& fallback);
   Vec2 vec2(const std::string& key, const Vec2& fallback);
   std::vector<double> numbers(const std::string& key);
+  /// A list of [u, v] pairs (empty when the key is absent).
+  std::vector<Vec2> vec2s(const std::string& key);
   std::vector<int> integers(const std::string& key, int lo = 0, int hi = std::numeric_limits<int>::max());
 
   JsonReader object(const std::string& key);

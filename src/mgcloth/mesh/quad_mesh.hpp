@@ -1,7 +1,11 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
 
+#include <string>
+
 #include <array>
+#include <filesystem>
+#include <utility>
 #include <vector>
 
 namespace mgcloth::mesh {
@@ -36,6 +40,11 @@ struct QuadGridSpec {
   /// Empty (i0 == i1): none.
   int notch_i0 = 0, notch_i1 = 0, notch_j0 = 0, notch_j1 = 0;
   bool ghost_layer = true;  ///< add one layer of ghost faces around every open boundary
+  /// Optional: where the grid lines lie on the limit surface, nx + 1 (ny + 1) increasing values from 0 to width
+  /// (height). The control points are then placed so that the limit surface of grid line i is exactly at
+  /// lines_u[i] (needs the ghost layer): non-uniform cells, e.g. a 0.3 m notch in a 4 x 4 grid of a 1 m square.
+  /// Empty: uniform.
+  std::vector<double> lines_u, lines_v;
 };
 
 /// Control mesh of a grid-aligned region in the z = 0 plane, material coordinates equal to (x, y); ghost points on
@@ -46,7 +55,29 @@ QuadMesh make_quad_grid(const QuadGridSpec& spec);
 /// The paper's rectangle: n × m quads.
 QuadMesh make_quad_rectangle(double width, double height, int nx, int ny, bool ghost_layer = true);
 /// A square of side `size` with n × n quads and the square of side `notch` at its top-right corner removed (the
-/// re-entrant corner scenario, §7); `notch` must be a whole number of cells.
+/// re-entrant corner scenario, §7). When `notch` is a whole number of cells the grid is uniform; otherwise the
+/// notch takes round(notch / size · n) cells (at least one) and the grid lines are spaced evenly on each side of
+/// the notch line (QuadGridSpec::lines_u), so a 0.3 m notch fits the paper's 4 × 4 coarsest grid.
 QuadMesh make_notched_square(double size, double notch, int n, bool ghost_layer = true);
+
+/// Edges of real faces on the boundary of the real region (no real face on the other side) as (face, k): the
+/// edge from quads[face][k] to quads[face][(k + 1) % 4].
+std::vector<std::pair<Index, int>> real_boundary_edges(const QuadMesh& mesh);
+
+/// Checks a control mesh and throws InputError naming `source` and the element: finite coordinates, indices in
+/// range, no repeated point in a quad, every edge in at most two quads, consistent orientation, every point used,
+/// at least one real face.
+void validate(const QuadMesh& mesh, const std::string& source);
+
+/// Adds one layer of ghost faces around the open boundary (Kopaničáková 2019 §5.2.1, Fig. 4c), ghost points
+/// extrapolated linearly across the boundary (2 v − v', v' the neighbour inside). Supported boundary points: on a
+/// straight run (two faces) and convex corners (one face); elsewhere (a concave corner, a boundary point of more
+/// faces) InputError asks for the ghost faces to be modelled in the input.
+void add_ghost_layer(QuadMesh& mesh);
+
+/// Reads an all-quad control mesh from OBJ: `vt` as material coordinates (one per position; without vt the
+/// material coordinates are (x, y)), scaled by material_scale. Faces in a group or object named "ghost" are ghost
+/// faces; otherwise, with `ghost_layer`, a ghost layer is added (add_ghost_layer). InputError names the file.
+QuadMesh read_quad_obj(const std::filesystem::path& path, double material_scale = 1.0, bool ghost_layer = true);
 
 }  // namespace mgcloth::mesh

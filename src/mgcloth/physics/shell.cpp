@@ -15,8 +15,8 @@ using StencilBlock = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 6>>;
 constexpr double kDegToRad = M_PI / 180.0;
 }  // namespace
 
-void square_gauss_rule(int n, std::vector<Vec2>& points, std::vector<double>& weights) {
-  if (n < 1 || n > 5) throw_input_error("shell quadrature: {} x {} Gauss points per face; 1-5 are supported", n, n);
+void line_gauss_rule(int n, std::vector<double>& points, std::vector<double>& weights) {
+  if (n < 1 || n > 5) throw_input_error("Gauss-Legendre rule of {} points; 1-5 are supported", n);
   std::vector<double> z, w;
   switch (n) {
     case 1: z = {0.0}; w = {2.0}; break;
@@ -38,10 +38,21 @@ void square_gauss_rule(int n, std::vector<Vec2>& points, std::vector<double>& we
   }
   points.clear();
   weights.clear();
+  for (int i = 0; i < n; ++i) {
+    points.push_back(0.5 * (z[i] + 1.0));
+    weights.push_back(0.5 * w[i]);
+  }
+}
+
+void square_gauss_rule(int n, std::vector<Vec2>& points, std::vector<double>& weights) {
+  std::vector<double> z, w;
+  line_gauss_rule(n, z, w);
+  points.clear();
+  weights.clear();
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
-      points.emplace_back(0.5 * (z[i] + 1.0), 0.5 * (z[j] + 1.0));
-      weights.push_back(0.25 * w[i] * w[j]);
+      points.emplace_back(z[i], z[j]);
+      weights.push_back(w[i] * w[j]);
     }
 }
 

@@ -17,6 +17,8 @@ struct ShellFaceQuadrature {
   Index size() const { return static_cast<Index>(points.size()); }
 };
 
+/// Gauss-Legendre points and weights of an n-point rule on [0, 1] (n = 1..5).
+void line_gauss_rule(int n, std::vector<double>& points, std::vector<double>& weights);
 /// Gauss-Legendre points and weights of an n x n rule on the unit square.
 void square_gauss_rule(int n, std::vector<Vec2>& points, std::vector<double>& weights);
 

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/physics/shell.hpp>
 #include <mgcloth/physics/shell_material.hpp>
 
 #include <cmath>
@@ -39,8 +40,8 @@ void ShellMaterial::validate() const {
   positive(thickness, "thickness");
   positive(density, "density");
   if (!std::isfinite(warp_angle_deg)) throw_input_error("shell material: warp_angle must be finite");
-  if (thickness_points < 1 || thickness_points > 5)
-    throw_input_error("shell material: thickness_points must be 1-5 (got {})", thickness_points);
+  if (thickness_points < 2 || thickness_points > 5)
+    throw_input_error("shell material: thickness_points must be 2-5 (one point has no bending) (got {})", thickness_points);
   if (model == Model::stvk) {
     positive(young, "young");
     if (!(poisson > -1.0 && poisson < 0.5))
@@ -67,6 +68,7 @@ ShellMaterial denim_material() {
   m.k = {4.79e6, 4.52e6, 9.03e6, 2.44e6};
   m.thickness = 0.66e-3;
   m.density = 0.4;
+  m.integration = ShellMaterial::Integration::split;
   const auto response = [](std::vector<double> mu_rest, std::vector<double> alpha) {
     double sum = 0.0;
     for (double v : mu_rest) sum += v;
@@ -96,6 +98,11 @@ double shell_energy_density(const ShellMaterial& m, const Vec3& e, Vec3* g, Mat3
   m.phi[2].evaluate(e[1] * e[1], f3, d3, dd3);
   m.phi[3].evaluate(e[2] * e[2], f4, d4, dd4);
   const auto& k = m.k;
+  // The fit is bounded below only while its responses keep a positive slope: where φ3' < 0 (Ẽ22² > 0.102 for
+  // denim) it falls without bound. There the energy is +∞, so that solvers reject such trial points instead of
+  // running into the unbounded region. (Inside, the fit is as published: with the linear coupling k2 φ2 and
+  // softening φ1, φ3 it is negative at moderate opposite strains, about −2e4 J/m³ at Ẽ11 = −Ẽ22 = 0.1.)
+  if (!(d1 > 0.0) || !(d3 > 0.0) || !(d4 > 0.0)) return kInf;
   const double psi = 0.5 * k[0] * f1 + k[1] * f2 + 0.5 * k[2] * f3 + k[3] * f4;
   if (!std::isfinite(psi)) return kInf;
   if (g) *g = Vec3(k[0] * d1 * e[0] + k[1] * d2 * e[1], k[2] * d3 * e[1] + k[1] * d2 * e[0], 2.0 * k[3] * d4 * e[2]);
@@ -109,40 +116,36 @@ double shell_energy_density(const ShellMaterial& m, const Vec3& e, Vec3* g, Mat3
   return psi;
 }
 
-namespace {
-/// Gauss-Legendre nodes and weights on [-1, 1].
-void gauss_legendre(int n, double* z, double* w) {
-  switch (n) {
-    case 1: z[0] = 0.0; w[0] = 2.0; break;
-    case 2: z[0] = -1.0 / std::sqrt(3.0); z[1] = -z[0]; w[0] = w[1] = 1.0; break;
-    case 3: z[0] = -std::sqrt(0.6); z[1] = 0.0; z[2] = -z[0]; w[0] = w[2] = 5.0 / 9.0; w[1] = 8.0 / 9.0; break;
-    case 4: {
-      const double a = std::sqrt(3.0 / 7.0 - 2.0 / 7.0 * std::sqrt(1.2)), b = std::sqrt(3.0 / 7.0 + 2.0 / 7.0 * std::sqrt(1.2));
-      const double wa = (18.0 + std::sqrt(30.0)) / 36.0, wb = (18.0 - std::sqrt(30.0)) / 36.0;
-      z[0] = -b; z[1] = -a; z[2] = a; z[3] = b; w[0] = w[3] = wb; w[1] = w[2] = wa;
-      break;
-    }
-    default: {
-      const double a = std::sqrt(5.0 - 2.0 * std::sqrt(10.0 / 7.0)) / 3.0, b = std::sqrt(5.0 + 2.0 * std::sqrt(10.0 / 7.0)) / 3.0;
-      const double wa = (322.0 + 13.0 * std::sqrt(70.0)) / 900.0, wb = (322.0 - 13.0 * std::sqrt(70.0)) / 900.0;
-      z[0] = -b; z[1] = -a; z[2] = 0.0; z[3] = a; z[4] = b; w[0] = w[4] = wb; w[1] = w[3] = wa; w[2] = 128.0 / 225.0;
-    }
-  }
-}
-}  // namespace
 
 double shell_area_density(const ShellMaterial& m, const Vec3& eps, const Vec3& kappa, Vec6* g, Mat6* H) {
-  double z[5], w[5];
+  if (m.integration == ShellMaterial::Integration::split) {
+    Vec3 ge;
+    Mat3 He, C0;
+    const double membrane = shell_energy_density(m, eps, g ? &ge : nullptr, H ? &He : nullptr);
+    if (!std::isfinite(membrane)) return kInf;
+    shell_energy_density(m, Vec3::Zero(), nullptr, &C0);
+    const double b = m.thickness * m.thickness * m.thickness / 12.0;
+    if (g) {
+      g->head<3>() = m.thickness * ge;
+      g->tail<3>() = b * C0 * kappa;
+    }
+    if (H) {
+      H->setZero();
+      H->topLeftCorner<3, 3>() = m.thickness * He;
+      H->bottomRightCorner<3, 3>() = b * C0;
+    }
+    return m.thickness * membrane + 0.5 * b * kappa.dot(C0 * kappa);
+  }
+  std::vector<double> z, w;
   const int n = m.thickness_points;
-  gauss_legendre(n, z, w);
-  const double half = 0.5 * m.thickness;
+  line_gauss_rule(n, z, w);
   double W = 0.0;
   if (g) g->setZero();
   if (H) H->setZero();
   Vec3 ge;
   Mat3 He;
   for (int i = 0; i < n; ++i) {
-    const double zi = half * z[i], wi = half * w[i];
+    const double zi = m.thickness * (z[i] - 0.5), wi = m.thickness * w[i];
     const double psi = shell_energy_density(m, eps + zi * kappa, g ? &ge : nullptr, H ? &He : nullptr);
     if (!std::isfinite(psi)) return kInf;
     W += wi * psi;

@@ -33,7 +33,15 @@ struct ShellMaterial {
   double thickness = 0.5e-3;        ///< τ, m
   double density = 0.2;             ///< kg/m² of reference area
   double warp_angle_deg = 0.0;      ///< warp direction o1 in material (u, v) space, from the u axis
-  int thickness_points = 3;         ///< Gauss-Legendre points through the thickness, 1-5
+  int thickness_points = 3;         ///< Gauss-Legendre points through the thickness, 2-5
+  /// How the energy density is integrated through the thickness (eq. 3.2):
+  /// gauss: ∫ ψ(ε + ξ³ κ) dξ³ by Gauss-Legendre, the nonlinear law at every fibre;
+  /// split: τ ψ(ε) + τ³/12 · ½ κᵀ C₀ κ, the nonlinear law for the membrane and its small-strain tangent
+  /// C₀ = ∂²ψ/∂Ẽ²(0) for bending, the usual split for cloth (bending strains ξ³κ of tight folds would otherwise
+  /// leave the woven fit's stable range, a few percent of strain, although the midsurface barely stretches).
+  /// The two agree exactly for St. Venant-Kirchhoff.
+  enum class Integration { gauss, split };
+  Integration integration = Integration::gauss;
 
   std::string model_name() const { return model == Model::stvk ? "stvk" : "woven"; }
   /// Throws InputError naming the field for non-finite or out-of-range values.
@@ -41,10 +49,12 @@ struct ShellMaterial {
 };
 
 /// Denim of Kopaničáková 2019, Table 1 (k in MPa, τ = 0.66 mm, ρ = 0.4 kg/m²). The table omits μ_j1; they follow
-/// from φ_j'(0) = 1 (Clyde et al. 2017), i.e. μ_j1 = 1 − Σ_{i≥2} μ_ji.
+/// from φ_j'(0) = 1 (Clyde et al. 2017), i.e. μ_j1 = 1 − Σ_{i≥2} μ_ji. Integrated by the split rule.
 ShellMaterial denim_material();
 
-/// ψ(Ẽ) per unit volume, with gradient and Hessian in (Ẽ11, Ẽ22, Ẽ12) when g, H are non-null.
+/// ψ(Ẽ) per unit volume, with gradient and Hessian in (Ẽ11, Ẽ22, Ẽ12) when g, H are non-null. The woven model
+/// is +∞ outside its range of validity: where a response's slope φ_j' is not positive (the fit no longer
+/// describes a material, and the denim fit's φ3 is unbounded below there).
 double shell_energy_density(const ShellMaterial& m, const Vec3& e, Vec3* g, Mat3* H);
 
 /// Energy per unit reference area of the membrane strain ε and the curvature change κ (frame components), the

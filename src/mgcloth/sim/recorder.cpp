@@ -23,6 +23,15 @@ T get(std::istream& in, const fs::path& file) {
   if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
   return v;
 }
+/// Probes are numbered across shells in scene order: the first probe of shell `name`.
+size_t probe_offset(const Simulator& sim, const std::string& name) {
+  size_t offset = 0;
+  for (const auto& sh : sim.shells()) {
+    if (sh->name() == name) return offset;
+    offset += sh->spec().probes.size();
+  }
+  return offset;
+}
 }  // namespace
 
 std::uint64_t scene_fingerprint(const Scene& scene) {
@@ -53,6 +62,16 @@ Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
     for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
     offset += m.num_vertices();
   }
+  for (const auto& sh : sim.shells()) {
+    const auto& m = sh->display_mesh();
+    for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(m.u.col(i));
+    for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+    offset += m.num_vertices();
+    m_record_probes = m_record_probes || !sh->spec().probes.empty();
+  }
+  m_probes.name = "probes.csv";
+  m_probes.header = "step,load_factor,probe,x,y,z,ux,uy,uz";
+  m_probes.step_column = 0;
   m_combined.u.resize(2, offset);
   for (Index i = 0; i < offset; ++i) m_combined.u.col(i) = u[i];
   m_combined.x = Mat3X::Zero(3, offset);
@@ -76,6 +95,7 @@ void Recorder::start(const Simulator& sim) {
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
   m_stats.rows.clear();
   m_trace.rows.clear();
+  m_probes.rows.clear();
   // A fresh run in a folder with an older run must not leave stale frames behind that look like ours.
   for (const auto& entry : fs::directory_iterator(m_dir)) {
     const std::string name = entry.path().filename().string();
@@ -95,6 +115,11 @@ void Recorder::write_frame(const Simulator& sim) const {
     x.middleCols(offset, n) = as_columns(c->x());
     offset += n;
   }
+  for (const auto& sh : sim.shells()) {
+    const Index n = sh->display_mesh().num_vertices();
+    x.middleCols(offset, n) = sh->display_positions();
+    offset += n;
+  }
   mesh::write_obj(frame_path(m_dir, sim.frame()), m_combined, x, 1.0);
 }
 
@@ -106,12 +131,14 @@ void Recorder::write_checkpoint(const Simulator& sim) const {
         put(o, m_fingerprint);
         put<std::int64_t>(o, sim.frame());
         put<std::int64_t>(o, sim.step_count());
-        put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size()));
-        for (const auto& c : sim.cloths()) {
-          put<std::int64_t>(o, c->x().size());
-          o.write(reinterpret_cast<const char*>(c->x().data()), sizeof(double) * c->x().size());
-          o.write(reinterpret_cast<const char*>(c->v().data()), sizeof(double) * c->v().size());
-        }
+        put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size() + sim.shells().size()));
+        const auto put_state = [&](const VecX& x, const VecX& v) {
+          put<std::int64_t>(o, x.size());
+          o.write(reinterpret_cast<const char*>(x.data()), sizeof(double) * x.size());
+          o.write(reinterpret_cast<const char*>(v.data()), sizeof(double) * v.size());
+        };
+        for (const auto& c : sim.cloths()) put_state(c->x(), c->v());
+        for (const auto& sh : sim.shells()) put_state(sh->x(), sh->v());
       },
       true);
 }
@@ -129,21 +156,32 @@ void Recorder::CsvLog::load_up_to_step(const fs::path& dir, long step) {
   std::string line;
   std::getline(in, line);
   while (std::getline(in, line)) {
-    // Both logs start with frame,step; rows past the checkpoint belong to the interrupted part.
-    const auto comma = line.find(',');
-    if (line.empty() || comma == std::string::npos) continue;
-    if (std::stol(line.substr(comma + 1)) <= step) rows.push_back(line);
+    // Rows past the checkpoint's step belong to the interrupted part.
+    std::size_t start = 0;
+    for (int c = 0; c < step_column && start != std::string::npos; ++c) {
+      start = line.find(',', start);
+      if (start != std::string::npos) ++start;
+    }
+    if (line.empty() || start == std::string::npos) continue;
+    if (std::stol(line.substr(start)) <= step) rows.push_back(line);
   }
 }
 
 void Recorder::write_logs() const {
   m_stats.write(m_dir);
   if (m_record_trace) m_trace.write(m_dir);
+  if (m_record_probes) m_probes.write(m_dir);
 }
 
 void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& stats) {
   for (const auto& s : stats) {
     m_stats.rows.push_back(stats_row(s));
+    for (size_t p = 0; p < s.probes.size(); ++p) {
+      const auto& r = s.probes[p];
+      m_probes.rows.push_back(fmt::format("{},{:.9g},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}", s.step,
+                                          s.load_factor, probe_offset(sim, s.cloth) + p, r.x.x(), r.x.y(), r.x.z(),
+                                          r.u.x(), r.u.y(), r.u.z()));
+    }
     for (const auto& t : s.trace)
       m_trace.rows.push_back(fmt::format("{},{},{},{},{:.17g},{:.9g},{:.3f},{:.6g}", s.frame, s.step, s.cloth, t.iteration,
                                          t.energy, t.grad_norm, t.wall_ms, t.step));
@@ -166,12 +204,16 @@ void Recorder::resume(Simulator& sim) {
   const auto frame = get<std::int64_t>(in, file);
   const auto step = get<std::int64_t>(in, file);
   const auto count = get<std::int64_t>(in, file);
-  if (count != static_cast<std::int64_t>(sim.cloths().size()))
-    throw InputError(fmt::format("{}: has {} cloths, the scene has {}", file.string(), count, sim.cloths().size()));
+  const size_t bodies = sim.cloths().size() + sim.shells().size();
+  if (count != static_cast<std::int64_t>(bodies))
+    throw InputError(fmt::format("{}: has {} bodies, the scene has {}", file.string(), count, bodies));
   std::vector<VecX> xs, vs;
   for (std::int64_t c = 0; c < count; ++c) {
     const auto n = get<std::int64_t>(in, file);
-    if (n != sim.cloths()[c]->x().size()) throw InputError(fmt::format("{}: cloth {} size mismatch", file.string(), c));
+    const size_t k = static_cast<size_t>(c);
+    const Index expected = k < sim.cloths().size() ? static_cast<Index>(sim.cloths()[k]->x().size())
+                                                   : static_cast<Index>(sim.shells()[k - sim.cloths().size()]->x().size());
+    if (n != expected) throw InputError(fmt::format("{}: body {} size mismatch", file.string(), c));
     VecX x(n), v(n);
     in.read(reinterpret_cast<char*>(x.data()), sizeof(double) * n);
     in.read(reinterpret_cast<char*>(v.data()), sizeof(double) * n);
@@ -182,6 +224,7 @@ void Recorder::resume(Simulator& sim) {
   sim.set_state(static_cast<int>(frame), step, xs, vs);
   m_stats.load_up_to_step(m_dir, step);
   if (m_record_trace) m_trace.load_up_to_step(m_dir, step);
+  if (m_record_probes) m_probes.load_up_to_step(m_dir, step);
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
   write_logs();
 }

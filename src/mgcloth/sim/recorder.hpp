@@ -5,7 +5,8 @@
 
 namespace mgcloth::sim {
 
-/// Writes a run to its output folder: frame_NNNNN.obj (all cloths, world positions with the material vt),
+/// Writes a run to its output folder: frame_NNNNN.obj (all cloths, then the limit surface of every shell sampled
+/// for display; world positions with the material vt), probes.csv for shells with probes,
 /// stats.csv (one row per step and cloth), scene.resolved.json (every default filled in) and checkpoint.bin
 /// (x and v of every cloth after the last complete frame). Every file is written atomically, so an interrupted run
 /// leaves only complete files, and `resume()` continues it from its last checkpoint.
@@ -39,11 +40,13 @@ class Recorder {
   /// A CSV file kept in memory and rewritten atomically, so that it always matches the checkpoint.
   struct CsvLog {
     std::string name, header;
+    int step_column = 1;  ///< which column holds the step (rows past the checkpoint's step are dropped on resume)
     std::vector<std::string> rows;
     void load_up_to_step(const std::filesystem::path& dir, long step);
     void write(const std::filesystem::path& dir) const;
   };
-  CsvLog m_stats, m_trace;
+  CsvLog m_stats, m_trace, m_probes;
+  bool m_record_probes = false;
   bool m_record_trace;
 };
 

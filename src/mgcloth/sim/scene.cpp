@@ -16,8 +16,6 @@ Eigen::Quaterniond euler_xyz_deg(const Vec3& deg) {
          Eigen::AngleAxisd(r.x(), Vec3::UnitX());
 }
 
-Json vec_json(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
-Json vec_json(const Vec2& v) { return Json::array({v.x(), v.y()}); }
 
 physics::Material parse_material(JsonReader r, std::string& preset) {
   preset = r.choice("preset", "cotton", material_presets());
@@ -242,7 +240,16 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   s.frames = r.integer("frames", s.frames, 0, 10'000'000);
   s.threads = r.integer("threads", s.threads, 0, 1024);
   const auto cloths = r.objects("cloths");
-  if (cloths.empty()) r.fail("cloths", "a scene needs at least one cloth");
+  const auto shells = r.objects("shells");
+  if (cloths.empty() && shells.empty()) r.fail("cloths", "a scene needs at least one cloth or shell");
+  for (size_t i = 0; i < shells.size(); ++i) {
+    s.shells.push_back(parse_shell(shells[i], base, i));
+    for (size_t j = 0; j < i; ++j)
+      if (s.shells[j].name == s.shells[i].name)
+        shells[i].fail("name", fmt::format("duplicate shell name \"{}\" (also shells[{}])", s.shells[i].name, j));
+  }
+  // Shells minimize indefinite, badly conditioned energies: their default is the trust-region method.
+  if (cloths.empty()) s.solver.name = "tr-dogleg";
   for (size_t i = 0; i < cloths.size(); ++i) {
     s.cloths.push_back(parse_cloth(cloths[i], base, i));
     for (size_t j = 0; j < i; ++j)
@@ -367,6 +374,8 @@ Json to_json(const Scene& s) {
     cj["seam_stiffness"] = c.seam_stiffness;
     j["cloths"].push_back(cj);
   }
+  j["shells"] = Json::array();
+  for (const auto& sh : s.shells) j["shells"].push_back(to_json(sh));
   j["obstacles"] = Json::array();
   for (const auto& o : s.obstacles) {
     Json oj;

@@ -5,6 +5,7 @@
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/physics/contact.hpp>
 #include <mgcloth/physics/material.hpp>
+#include <mgcloth/sim/shell_scene.hpp>
 #include <mgcloth/solvers/factory.hpp>
 
 #include <Eigen/Geometry>
@@ -88,6 +89,8 @@ struct Scene {
   int frames = 60;
   int threads = 0;                 ///< 0: all cores
   std::vector<ClothSpec> cloths;
+  /// Subdivision Kirchhoff-Love shells (Kopaničáková 2019): stepped with the same solver; no obstacle contact.
+  std::vector<ShellSpec> shells;
   std::vector<ObstacleSpec> obstacles;
   physics::ContactParams contact;
   solvers::SolverConfig solver;
@@ -95,6 +98,8 @@ struct Scene {
   OutputSpec output;
 
   double step_size() const { return frame_time / substeps; }
+  /// Steps of the whole run (frames × substeps): static shells reach the full load at the last one.
+  long total_steps() const { return static_cast<long>(frames) * substeps; }
 };
 
 /// Parses a scene file: unknown keys, wrong types and out-of-range values are InputError naming file and path.

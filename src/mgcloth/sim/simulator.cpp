@@ -25,6 +25,25 @@ Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
   }
+  for (size_t i = 0; i < m_scene.shells.size(); ++i) {
+    const auto& spec = m_scene.shells[i];
+    m_shell_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
+    try {
+      m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file));
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: shells[{}] (\"{}\"): {}", m_scene.file, i, spec.name, e.what()));
+    }
+  }
+}
+
+solvers::Problem Simulator::prepare_shell_problem(size_t s, VecX& x0, double* load_factor) {
+  const double lambda = std::min(1.0, static_cast<double>(m_step + 1) / static_cast<double>(std::max(1L, m_scene.total_steps())));
+  ShellBody& body = *m_shells[s];
+  x0 = body.prepare_step(time() + m_scene.step_size(), m_scene.step_size(), lambda);
+  if (load_factor) *load_factor = body.is_static() ? lambda : 1.0;
+  solvers::Problem problem;
+  problem.objective = &body.objective();
+  return problem;
 }
 
 solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
@@ -74,6 +93,28 @@ std::vector<StepStats> Simulator::step() {
     s.wall_ms = timer.ms();
     out.push_back(std::move(s));
   }
+  for (size_t i = 0; i < m_shells.size(); ++i) {
+    Timer timer;
+    ShellBody& body = *m_shells[i];
+    StepStats s;
+    VecX x;
+    solvers::Problem problem = prepare_shell_problem(i, x, &s.load_factor);
+    try {
+      s.report = m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
+    } catch (const SolveError& e) {
+      throw SolveError(fmt::format("{}: shell \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
+                                   m_frame + 1, m_step + 1, t + h, e.what()));
+    }
+    body.finish_step(x, h);
+    s.probes = body.probes();
+    s.frame = m_frame + 1;
+    s.step = m_step + 1;
+    s.sim_time = t + h;
+    s.cloth = body.name();
+    s.solver = m_shell_solvers[i]->name();
+    s.wall_ms = timer.ms();
+    out.push_back(std::move(s));
+  }
   ++m_step;
   return out;
 }
@@ -89,8 +130,17 @@ std::vector<StepStats> Simulator::advance_frame() {
 }
 
 void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v) {
-  if (x.size() != m_cloths.size() || v.size() != m_cloths.size())
-    throw InputError(fmt::format("checkpoint has {} cloths, the scene has {}", x.size(), m_cloths.size()));
+  if (x.size() != m_cloths.size() + m_shells.size() || v.size() != x.size())
+    throw InputError(fmt::format("checkpoint has {} bodies, the scene has {} cloths and {} shells", x.size(),
+                                 m_cloths.size(), m_shells.size()));
+  for (size_t s = 0; s < m_shells.size(); ++s) {
+    const size_t k = m_cloths.size() + s;
+    if (x[k].size() != m_shells[s]->x().size() || v[k].size() != m_shells[s]->v().size())
+      throw InputError(fmt::format("checkpoint: shell \"{}\" has {} dofs, the scene's shell has {}", m_shells[s]->name(),
+                                   x[k].size(), m_shells[s]->x().size()));
+    m_shells[s]->x() = x[k];
+    m_shells[s]->v() = v[k];
+  }
   for (size_t c = 0; c < m_cloths.size(); ++c) {
     if (x[c].size() != m_cloths[c]->x().size() || v[c].size() != m_cloths[c]->v().size())
       throw InputError(fmt::format("checkpoint: cloth \"{}\" has {} dofs, the scene's mesh has {}", m_cloths[c]->name(),

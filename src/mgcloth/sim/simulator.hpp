@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/sim/shell_body.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <memory>
@@ -17,6 +18,9 @@ struct StepStats {
   double wall_ms = 0.0;  ///< the whole step: set-up, solve, projection, friction
   Index projected = 0;   ///< vertices pushed out of obstacles after the solve
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
+  /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
+  double load_factor = 1.0;
+  std::vector<ProbeReading> probes;
 };
 
 /// The time loop: every step minimizes each cloth's incremental potential with the scene's solver
@@ -29,6 +33,8 @@ class Simulator {
   std::vector<std::unique_ptr<ClothBody>>& cloths() { return m_cloths; }
   const std::vector<std::unique_ptr<ClothBody>>& cloths() const { return m_cloths; }
   const std::vector<geometry::Obstacle>& obstacles() const { return m_obstacles; }
+  std::vector<std::unique_ptr<ShellBody>>& shells() { return m_shells; }
+  const std::vector<std::unique_ptr<ShellBody>>& shells() const { return m_shells; }
 
   /// Completed frames and steps; time is derived from the step count so that a resumed run lands on the same
   /// floating-point times as an uninterrupted one.
@@ -41,6 +47,9 @@ class Simulator {
   /// step() and by benchmarks that freeze one step's objective. Valid until the next prepare or step.
   solvers::Problem prepare_problem(size_t c, VecX& x0);
   solvers::NonlinearSolver& solver(size_t c) { return *m_solvers[c]; }
+  /// The same for shell s: its step objective and start point, and the load factor of the step.
+  solvers::Problem prepare_shell_problem(size_t s, VecX& x0, double* load_factor = nullptr);
+  solvers::NonlinearSolver& shell_solver(size_t s) { return *m_shell_solvers[s]; }
 
   /// Runs the substeps of the next frame.
   std::vector<StepStats> advance_frame();
@@ -49,7 +58,7 @@ class Simulator {
   /// Keep the solver's per-iteration trace (energy, gradient norm, wall time) in every StepStats.
   void set_record_trace(bool on) { m_record_trace = on; }
 
-  /// State for checkpoints: frame, step, and every cloth's x and v.
+  /// State for checkpoints: frame, step, and x and v of every cloth, then of every shell.
   void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
 
  private:
@@ -57,6 +66,8 @@ class Simulator {
   std::vector<geometry::Obstacle> m_obstacles;
   std::vector<std::unique_ptr<ClothBody>> m_cloths;
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
+  std::vector<std::unique_ptr<ShellBody>> m_shells;
+  std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_shell_solvers;
   int m_frame = 0;
   long m_step = 0;
   bool m_record_trace = false;

@@ -1,7 +1,9 @@
 #include <mgcloth/solvers/factory.hpp>
 #include <mgcloth/solvers/fas.hpp>
 #include <mgcloth/solvers/newton.hpp>
+#include <mgcloth/solvers/newton_variants.hpp>
 #include <mgcloth/solvers/nonlinear_fmg.hpp>
+#include <mgcloth/solvers/trust_region.hpp>
 
 #include <functional>
 
@@ -110,6 +112,56 @@ Json write_fas(const FasParams& p) {
   return j;
 }
 
+TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
+  p.eta1 = r.number("eta1", p.eta1, 0.0, 1.0);
+  p.eta2 = r.number("eta2", p.eta2, 0.0, 1.0);
+  if (!(0.0 < p.eta1 && p.eta1 <= p.eta2 && p.eta2 < 1.0))
+    r.fail(r.has("eta2") ? "eta2" : "eta1", fmt::format("needs 0 < eta1 <= eta2 < 1 (got {}, {})", p.eta1, p.eta2));
+  p.gamma1 = r.number("gamma1", p.gamma1, 0.0, 1.0);
+  if (!(p.gamma1 > 0.0 && p.gamma1 < 1.0)) r.fail("gamma1", "must lie in (0, 1)");
+  p.gamma2 = r.number("gamma2", p.gamma2, 1.0, 1e6);
+  if (!(p.gamma2 > 1.0)) r.fail("gamma2", "must be > 1");
+  p.delta0 = r.number("delta0", p.delta0, 1e-300, 1e300);
+  p.delta_max = r.number("delta_max", p.delta_max, 1e-300, 1e300);
+  if (p.delta_max < p.delta0) r.fail("delta_max", fmt::format("must be >= delta0 ({})", p.delta0));
+  if (p.qp == TrQp::SteihaugCg) {
+    p.stcg_max_iters = r.integer("stcg_max_iters", p.stcg_max_iters, 0, 100'000'000);
+    p.stcg_rel_tol = r.number("stcg_rel_tol", p.stcg_rel_tol, 0.0, 0.9);
+  }
+  p.stagnation_tol = r.number("stagnation_tol", p.stagnation_tol, 0.0, 1.0);
+  p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
+  p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
+  return p;
+}
+Json write_trust_region(const TrustRegionParams& p) {
+  Json j = {{"eta1", p.eta1},
+            {"eta2", p.eta2},
+            {"gamma1", p.gamma1},
+            {"gamma2", p.gamma2},
+            {"delta0", p.delta0},
+            {"delta_max", p.delta_max},
+            {"stagnation_tol", p.stagnation_tol},
+            {"stagnation_delta", p.stagnation_delta},
+            {"roundoff_tol", p.roundoff_tol}};
+  if (p.qp == TrQp::SteihaugCg) {
+    j["stcg_max_iters"] = p.stcg_max_iters;
+    j["stcg_rel_tol"] = p.stcg_rel_tol;
+  }
+  return j;
+}
+
+ExactNewtonParams read_exact_newton(JsonReader& r, ExactNewtonParams p) {
+  if (p.mode == ExactNewtonMode::LineSearch) read_line_search(r, p.line_search);
+  if (p.mode == ExactNewtonMode::Damped) p.alpha = r.number("alpha", p.alpha, 1e-6, 2.0);
+  return p;
+}
+Json write_exact_newton(const ExactNewtonParams& p) {
+  Json j = Json::object();
+  if (p.mode == ExactNewtonMode::LineSearch) write_line_search(j, p.line_search);
+  if (p.mode == ExactNewtonMode::Damped) j["alpha"] = p.alpha;
+  return j;
+}
+
 /// The built-in configurations behind each solver name (docs/solvers.md documents them).
 NewtonParams newton_preset(const std::string& name) {
   NewtonParams p;
@@ -148,11 +200,26 @@ FmgParams fmg_preset(const std::string& name) {
   return p;
 }
 
-enum class Kind { Newton, Fmg, Fas };
+TrustRegionParams trust_region_preset(const std::string& name) {
+  TrustRegionParams p;
+  p.qp = name == "tr-stcg" ? TrQp::SteihaugCg : TrQp::Dogleg;
+  return p;
+}
+
+ExactNewtonParams exact_newton_preset(const std::string& name) {
+  ExactNewtonParams p;
+  if (name == "newton-damped") p.mode = ExactNewtonMode::Damped;
+  if (name == "linearized") p.mode = ExactNewtonMode::Linearized;
+  return p;
+}
+
+enum class Kind { Newton, Fmg, Fas, TrustRegion, ExactNewton };
 Kind kind_of(const std::string& name) {
   if (name == "newton" || name == "newton-direct" || name == "newton-amg" || name == "newton-mg" || name == "pd-direct")
     return Kind::Newton;
   if (name == "fas") return Kind::Fas;
+  if (name == "tr-dogleg" || name == "tr-stcg") return Kind::TrustRegion;
+  if (name == "newton-ls" || name == "newton-damped" || name == "linearized") return Kind::ExactNewton;
   return Kind::Fmg;
 }
 
@@ -160,7 +227,7 @@ Kind kind_of(const std::string& name) {
 
 std::vector<std::string> solver_names() {
   return {"fmg", "newton-direct", "newton-amg", "newton-mg", "fas", "gs-chebyshev", "pd-direct", "pd-gs-chebyshev",
-          "pd-fmg", "newton"};
+          "pd-fmg", "newton", "tr-dogleg", "tr-stcg", "newton-ls", "newton-damped", "linearized"};
 }
 
 namespace {
@@ -182,6 +249,12 @@ std::unique_ptr<NonlinearSolver> make_solver(const SolverConfig& c, const std::s
     case Kind::Newton: s = std::make_unique<Newton>(read_newton(r, newton_preset(c.name)), c.name); break;
     case Kind::Fmg: s = std::make_unique<NonlinearFMG>(read_fmg(r, fmg_preset(c.name)), c.name); break;
     case Kind::Fas: s = std::make_unique<Fas>(read_fas(r, FasParams{})); break;
+    case Kind::TrustRegion:
+      s = std::make_unique<TrustRegion>(read_trust_region(r, trust_region_preset(c.name)), c.name);
+      break;
+    case Kind::ExactNewton:
+      s = std::make_unique<ExactNewton>(read_exact_newton(r, exact_newton_preset(c.name)), c.name);
+      break;
   }
   r.finish();
   return s;
@@ -195,6 +268,8 @@ Json resolved_params(const SolverConfig& c, const std::string& file, const std::
     case Kind::Newton: j = write_newton(read_newton(r, newton_preset(c.name))); break;
     case Kind::Fmg: j = write_fmg(read_fmg(r, fmg_preset(c.name))); break;
     case Kind::Fas: j = write_fas(read_fas(r, FasParams{})); break;
+    case Kind::TrustRegion: j = write_trust_region(read_trust_region(r, trust_region_preset(c.name))); break;
+    case Kind::ExactNewton: j = write_exact_newton(read_exact_newton(r, exact_newton_preset(c.name))); break;
   }
   r.finish();
   return j;

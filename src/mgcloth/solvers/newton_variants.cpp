@@ -1,0 +1,130 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/linalg/trust_region_qp.hpp>
+#include <mgcloth/solvers/newton_variants.hpp>
+
+#include <cmath>
+
+namespace mgcloth::solvers {
+
+namespace {
+std::string default_name(ExactNewtonMode mode) {
+  switch (mode) {
+    case ExactNewtonMode::LineSearch: return "newton-ls";
+    case ExactNewtonMode::Damped: return "newton-damped";
+    case ExactNewtonMode::Linearized: return "linearized";
+  }
+  return "exact-newton";
+}
+}  // namespace
+
+ExactNewton::ExactNewton(ExactNewtonParams params, std::string name)
+    : m_params(std::move(params)), m_name(name.empty() ? default_name(m_params.mode) : std::move(name)) {}
+
+void ExactNewton::direction(const physics::Objective& objective, const VecX& x, const VecX& g, VecX& p) {
+  objective.hessian(x, m_hessian, /*project_psd=*/false);
+  ++m_hessian_assemblies;
+  linalg::ShiftedFactorization f;
+  try {
+    f = linalg::factorize_shifted(m_cholmod, m_hessian);
+  } catch (const SolveError& e) {
+    throw SolveError(fmt::format("{}: {}", m_name, e.what()));
+  }
+  m_factorizations += f.attempts;
+  if (f.shift > 0.0) ++m_fallbacks;
+  m_max_shift = std::max(m_max_shift, f.shift);
+  m_cholmod.solve(-g, p);
+  // With H + λI positive definite p is a descent direction in exact arithmetic; round-off in a nearly singular
+  // system can still break that.
+  if (!p.allFinite() || !(g.dot(p) < 0.0)) {
+    p = -g;
+    ++m_steepest;
+  }
+}
+
+SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
+  const physics::Objective& obj = *problem.objective;
+  Timer timer;
+  SolveReport rep;
+  m_hessian_assemblies = m_factorizations = m_fallbacks = m_steepest = 0;
+  m_max_shift = 0.0;
+  int ls_evaluations = 0;
+  VecX g, p, trial, g_trial;
+  double e = obj.value(x);
+  obj.gradient(x, g);
+  double gnorm = g.norm();
+  check_finite(m_name, e, gnorm, 0);
+  rep.initial_grad_norm = gnorm;
+  if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
+  const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
+  const auto energy = [&](const VecX& y) {
+    ++ls_evaluations;
+    return obj.value(y);
+  };
+  // After an update of x: the feasibility projection, then energy and gradient at the new x, and its trace row.
+  const auto advance = [&](int k, double step) {
+    if (problem.project) problem.project(x);
+    e = obj.value(x);
+    obj.gradient(x, g);
+    gnorm = g.norm();
+    check_finite(m_name, e, gnorm, k + 1);
+    if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), step});
+  };
+  const bool linearized = m_params.mode == ExactNewtonMode::Linearized;
+  const int max_iters = linearized ? 1 : stop.max_iters;
+  rep.status = "max_iters";
+  int k = 0;
+  for (; k < max_iters; ++k) {
+    if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
+    direction(obj, x, g, p);
+    if (m_params.mode != ExactNewtonMode::LineSearch) {
+      const double alpha = linearized ? 1.0 : m_params.alpha;
+      x += alpha * p;
+      advance(k, alpha);
+      continue;
+    }
+    const double slope = g.dot(p);
+    // Once the predicted decrease is below the round-off of the energy itself, the Armijo test compares noise;
+    // there a full step is judged by the gradient norm instead (as Newton does, but relative to |E| alone, which
+    // for cloth energies of a few centijoules is where the noise is).
+    if (-slope < 1e-13 * std::abs(e)) {
+      trial = x + p;
+      obj.gradient(trial, g_trial);
+      if (!(g_trial.norm() < gnorm)) {
+        rep.status = "stalled";
+        break;
+      }
+      x.swap(trial);
+      advance(k, 1.0);
+      continue;
+    }
+    const auto ls = backtracking(energy, x, e, p, slope, 1.0, m_params.line_search, trial);
+    if (!ls.success) {
+      // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
+      if (gnorm <= 1e-5 * rep.initial_grad_norm) {
+        rep.status = "stalled";
+        break;
+      }
+      throw SolveError(fmt::format("{}: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e})", m_name, k,
+                                   gnorm, gnorm / rep.initial_grad_norm));
+    }
+    x.swap(trial);
+    advance(k, ls.alpha);
+    logger().debug("{} {:3d}: E = {:.12e}  |g| = {:.3e}  alpha = {:.3g}", m_name, k + 1, e, gnorm, ls.alpha);
+  }
+  finish_report(rep, k, e, gnorm, target, timer.ms());
+  if (linearized && k == 1) {
+    rep.status = gnorm <= target ? "converged" : "linearized";
+    rep.converged = gnorm <= target;
+  }
+  rep.counters = {{"hessian_assemblies", m_hessian_assemblies},
+                  {"factorizations", m_factorizations},
+                  {"cholmod_fallbacks", m_fallbacks},
+                  {"max_shift", m_max_shift},
+                  {"steepest_descent_steps", m_steepest},
+                  {"line_search_evaluations", ls_evaluations}};
+  return rep;
+}
+
+}  // namespace mgcloth::solvers

@@ -1,0 +1,217 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/solvers/trust_region.hpp>
+
+#include <cmath>
+
+namespace mgcloth::solvers {
+
+LevelModel::LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0)
+    : m_f(&f), m_delta_g(std::move(delta_g)), m_offset(-m_delta_g.dot(x0)) {
+  if (m_delta_g.size() != x0.size() || m_delta_g.size() != f.num_dofs())
+    throw_error("LevelModel: δg has {} entries, x₀ {}, the objective {} dofs", m_delta_g.size(), x0.size(),
+                f.num_dofs());
+}
+
+double LevelModel::value(const VecX& x) const {
+  const double e = m_f->value(x);
+  return has_linear_term() ? e + m_delta_g.dot(x) + m_offset : e;
+}
+
+void LevelModel::gradient(const VecX& x, VecX& g) const {
+  m_f->gradient(x, g);
+  if (has_linear_term()) g += m_delta_g;
+}
+
+namespace {
+/// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
+double radius_update(const TrustRegionParams& p, double rho, double radius) {
+  if (rho < p.eta1) return p.gamma1 * radius;
+  if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
+  return radius;
+}
+}  // namespace
+
+LocalTrustRegion::LocalTrustRegion(TrustRegionParams params, std::string name)
+    : m_params(std::move(params)), m_name(std::move(name)) {}
+
+void LocalTrustRegion::reset() {
+  m_counters = {};
+  m_history.clear();
+}
+
+linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm) {
+  ++m_counters.qp_calls;
+  if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
+  const double tol = m_params.stcg_rel_tol > 0.0
+                         ? m_params.stcg_rel_tol
+                         : std::min(0.5, std::sqrt(m_g.norm() / std::max(initial_grad_norm, 1e-300)));
+  auto r = linalg::steihaug_cg(m_hessian, m_g, radius, m_params.stcg_max_iters, tol);
+  m_counters.cg_iterations += r.iterations;
+  return r;
+}
+
+LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius, const LocalTrControl& control) {
+  const TrustRegionParams& p = m_params;
+  Timer own_clock;
+  const Timer& clock = control.timer ? *control.timer : own_clock;
+  LocalTrResult res;
+  double f = h.value(x);
+  h.gradient(x, m_g);
+  ++m_counters.energy_evaluations;
+  ++m_counters.gradient_assemblies;
+  double gnorm = m_g.norm();
+  check_finite(m_name, f, gnorm, 0);
+  res.initial_grad_norm = gnorm;
+  res.grad_target = std::max(control.abs_grad, control.rel_grad * gnorm);
+  if (control.trace) control.trace->push_back({0, f, gnorm, clock.ms(), 0.0});
+  bool have_hessian = false;
+  // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1).
+  double last_df = kInf, last_dx = kInf, last_radius = 0.0;
+  res.status = "max_iters";
+  int i = 0;
+  for (; i < control.max_iters; ++i) {
+    if (gnorm <= res.grad_target) res.status = "converged";
+    else if (clock.seconds() > control.max_seconds) res.status = "time_limit";
+    else if (last_radius > p.stagnation_delta && (last_df < p.stagnation_tol || last_dx < p.stagnation_tol))
+      res.status = "stalled";
+    // A radius below the round-off of x cannot move it: no decrease is possible in floating point.
+    else if (!(radius > 1e-15 * x.lpNorm<Eigen::Infinity>()) || radius < std::numeric_limits<double>::min())
+      res.status = "stalled";
+    if (res.status != "max_iters") break;
+
+    if (!have_hessian) {
+      h.hessian(x, m_hessian);
+      ++m_counters.hessian_assemblies;
+      if (p.qp == TrQp::Dogleg) {
+        const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
+        try {
+          m_dogleg.prepare(m_hessian, m_g);
+        } catch (const SolveError& e) {
+          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+        }
+        m_counters.factorizations += m_dogleg.factorizations() - before;
+        m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
+      }
+      have_hessian = true;
+    }
+    const auto qp = solve_qp(radius, res.initial_grad_norm);
+    TrIteration it;
+    it.radius = radius;
+    it.predicted = qp.model_decrease;
+    it.step_norm = qp.s.norm();
+    it.qp = qp.reason;
+    it.cg_iterations = qp.iterations;
+    if (!std::isfinite(qp.model_decrease))
+      throw SolveError(fmt::format("{}: non-finite model decrease at iteration {} (Hessian not finite?)", m_name, i));
+    // SDC makes the predicted decrease positive whenever g ≠ 0; a non-positive one is all round-off.
+    if (!(qp.model_decrease > 0.0)) {
+      res.status = "stalled";
+      break;
+    }
+    m_trial = x + qp.s;
+    const double f_trial = h.value(m_trial);
+    ++m_counters.energy_evaluations;
+    it.actual = f - f_trial;
+    it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
+    bool have_trial_gradient = false;
+    double next = radius;
+    if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
+      // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
+      // Where even the gradient no longer decreases, the limiting accuracy is reached.
+      h.gradient(m_trial, m_g_trial);
+      ++m_counters.gradient_assemblies;
+      have_trial_gradient = true;
+      if (!(m_g_trial.norm() < gnorm)) {
+        res.status = "stalled";
+        break;
+      }
+      it.accepted = true;
+    } else {
+      // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
+      it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
+      next = radius_update(p, it.rho, radius);
+    }
+    double step_taken = 0.0;
+    if (it.accepted) {
+      ++m_counters.accepted;
+      x.swap(m_trial);
+      f = f_trial;
+      const bool moved = control.project && control.project(x) > 0;
+      if (moved) {
+        f = h.value(x);
+        ++m_counters.energy_evaluations;
+      }
+      if (have_trial_gradient && !moved) {
+        m_g.swap(m_g_trial);
+      } else {
+        h.gradient(x, m_g);
+        ++m_counters.gradient_assemblies;
+      }
+      gnorm = m_g.norm();
+      check_finite(m_name, f, gnorm, i + 1);
+      have_hessian = false;
+      step_taken = it.step_norm;
+      last_df = std::abs(it.actual);
+      last_dx = it.step_norm;
+    } else {
+      ++m_counters.rejected;
+      last_df = last_dx = 0.0;
+    }
+    last_radius = radius;
+    if (control.radius_cap) next = control.radius_cap(x, next);
+    it.next_radius = next;
+    m_history.push_back(it);
+    if (control.trace) control.trace->push_back({i + 1, f, gnorm, clock.ms(), step_taken});
+    logger().debug("tr {:4d}: {} rho = {:+.3e}  E = {:.12e}  |g| = {:.3e}  radius {:.3e} -> {:.3e}  |s| = {:.3e} ({})",
+                   i + 1, it.accepted ? "accept" : "reject", it.rho, f, gnorm, radius, next, it.step_norm,
+                   linalg::to_string(qp.reason));
+    radius = next;
+    if (!(radius > 0.0)) {
+      ++i;
+      res.status = "radius_exhausted";
+      break;
+    }
+  }
+  res.iterations = i;
+  res.energy = f;
+  res.grad_norm = gnorm;
+  return res;
+}
+
+TrustRegion::TrustRegion(TrustRegionParams params, std::string name)
+    : m_name(!name.empty() ? std::move(name) : params.qp == TrQp::Dogleg ? "tr-dogleg" : "tr-stcg"),
+      m_core(std::move(params), m_name) {}
+
+SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
+  Timer timer;
+  m_core.reset();
+  LocalTrControl control;
+  control.max_iters = stop.max_iters;
+  control.rel_grad = stop.rel_grad;
+  control.abs_grad = stop.abs_grad;
+  control.max_seconds = stop.max_seconds;
+  control.timer = &timer;
+  control.trace = trace;
+  control.project = problem.project;
+  double radius = m_core.params().delta0;
+  const LocalTrResult r = m_core.run(LevelModel(*problem.objective), x, radius, control);
+  SolveReport rep;
+  rep.status = r.status;
+  rep.initial_grad_norm = r.initial_grad_norm;
+  finish_report(rep, r.iterations, r.energy, r.grad_norm, r.grad_target, timer.ms());
+  const TrCounters& c = m_core.counters();
+  rep.counters = {{"accepted", c.accepted},
+                  {"rejected", c.rejected},
+                  {"hessian_assemblies", c.hessian_assemblies},
+                  {"gradient_assemblies", c.gradient_assemblies},
+                  {"energy_evaluations", c.energy_evaluations},
+                  {"qp_calls", c.qp_calls},
+                  {"cg_iterations", static_cast<double>(c.cg_iterations)},
+                  {"factorizations", c.factorizations},
+                  {"cholmod_fallbacks", c.cholmod_fallbacks},
+                  {"final_radius", radius}};
+  return rep;
+}
+
+}  // namespace mgcloth::solvers

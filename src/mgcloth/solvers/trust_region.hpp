@@ -1,0 +1,170 @@
+#pragma once
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/linalg/trust_region_qp.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace mgcloth::solvers {
+
+/// Subproblem solver of each trust-region iteration (Kopaničáková 2019, §7.3).
+enum class TrQp { Dogleg, SteihaugCg };
+
+/// Trust-region constants (Kopaničáková 2019, Table 2) and stopping rules (§7.2, criterion 7.1).
+struct TrustRegionParams {
+  double eta1 = 0.1;     ///< a trial point is accepted when ρ > η1 (Alg. 4.1, line 4); Δ shrinks when ρ < η1
+  double eta2 = 0.75;    ///< Δ grows when ρ > η2 (Alg. 4.3, line 2)
+  double gamma1 = 0.5;   ///< shrink factor
+  double gamma2 = 2.0;   ///< growth factor
+  double delta0 = 1.0;   ///< initial radius of every minimize()
+  double delta_max = 1e20;
+  TrQp qp = TrQp::Dogleg;
+  int stcg_max_iters = 0;     ///< CG iterations per subproblem; 0: 3·dofs (in effect unlimited)
+  /// CG stops at ‖r‖ ≤ tol·‖g‖; 0: the forcing term min(0.5, √(‖g‖/‖g₀‖)) of the run's start g₀, which keeps
+  /// Newton's superlinear convergence near the minimizer (Nocedal-Wright Thm. 7.2) without solving far from it.
+  double stcg_rel_tol = 0.0;
+  /// Criterion (7.1), second part: once Δ > stagnation_delta (the method has become Newton's), the solve stops as
+  /// "stalled" when the last iteration changed the energy or the iterate by less than stagnation_tol (absolute),
+  /// the limiting accuracy of the ill-conditioned problem. A rejected step changes neither, so it stops too.
+  double stagnation_tol = 1e-12;
+  double stagnation_delta = 1e15;
+  /// When the predicted decrease is below roundoff_tol·|h(x)|, ρ compares round-off noise; the trial point is
+  /// then judged by the gradient norm: accepted with Δ unchanged when ‖∇h‖ decreases, else the run stops as
+  /// "stalled" (limiting accuracy). Relative to |h| alone, not max(1, |h|): cloth energies of 0.05 J would
+  /// otherwise hit the guard while ρ is still accurate. Beyond the paper; 0 = off.
+  double roundoff_tol = 1e-14;
+};
+
+/// The objective of one level, h(x) = f(x) + ⟨δg, x − x₀⟩ (Kopaničáková 2019, eq. 4.3): the coupling term
+/// makes the coarse gradient at x₀ equal the restricted fine gradient (eq. 4.5). Without δg, h = f. The Hessian
+/// is always f's exact one (eq. 4.1: H = ∇²f, never PSD-projected). Keeps references: f must outlive it.
+class LevelModel {
+ public:
+  explicit LevelModel(const physics::Objective& f) : m_f(&f) {}
+  LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0);
+
+  const physics::Objective& objective() const { return *m_f; }
+  bool has_linear_term() const { return m_delta_g.size() > 0; }
+  double value(const VecX& x) const;
+  void gradient(const VecX& x, VecX& g) const;
+  void hessian(const VecX& x, linalg::BlockMatrix3& H) const { m_f->hessian(x, H, /*project_psd=*/false); }
+
+ private:
+  const physics::Objective* m_f;
+  VecX m_delta_g;
+  double m_offset = 0.0;  ///< −⟨δg, x₀⟩
+};
+
+/// Work done by Local_TR; derivatives are assembled only at accepted points (Table 6's count).
+struct TrCounters {
+  int accepted = 0;
+  int rejected = 0;
+  int hessian_assemblies = 0;
+  int gradient_assemblies = 0;
+  int energy_evaluations = 0;
+  int qp_calls = 0;
+  long cg_iterations = 0;
+  int factorizations = 0;     ///< numeric CHOLMOD factorizations (dogleg), shifted retries included
+  int cholmod_fallbacks = 0;  ///< dogleg preparations whose H was not positive definite
+};
+
+/// One Local_TR iteration, accepted or rejected.
+struct TrIteration {
+  bool accepted = false;
+  double radius = 0.0;       ///< Δ_i the subproblem was solved with
+  double next_radius = 0.0;  ///< Δ_{i+1}
+  double rho = 0.0;          ///< eq. (4.2); ±∞ when the trial energy was not finite
+  double predicted = 0.0;    ///< m(0) − m(s)
+  double actual = 0.0;       ///< h(x) − h(x + s)
+  double step_norm = 0.0;    ///< ‖s‖
+  linalg::QpStop qp = linalg::QpStop::Converged;
+  int cg_iterations = 0;
+};
+
+/// How long Local_TR runs and what it may call.
+struct LocalTrControl {
+  int max_iters = 1;  ///< i_max of Alg. 4.1: iterations, accepted or rejected
+  /// Stop when ‖∇h‖ ≤ max(abs_grad, rel_grad·‖∇h(x₀)‖) (0, 0: never by the gradient).
+  double rel_grad = 0.0;
+  double abs_grad = 0.0;
+  double max_seconds = kInf;
+  const Timer* timer = nullptr;  ///< clock of the time limit and of trace wall times (own clock when null)
+  Trace* trace = nullptr;        ///< receives the start row and one row per iteration
+  /// Applied to each new radius: Δ_{i+1} = radius_cap(x_{i+1}, Δ₊); for RMTR's coarse-level limit (Alg. 4.3,
+  /// lines 3-7). A result ≤ 0 ends the run with status "radius_exhausted".
+  std::function<double(const VecX& x, double radius)> radius_cap;
+  /// Feasibility projection after accepted steps (Problem::project); h is re-evaluated when it moves x.
+  std::function<Index(VecX&)> project;
+};
+
+struct LocalTrResult {
+  int iterations = 0;
+  /// "max_iters" (i_max done), "converged", "time_limit", "stalled", "radius_exhausted".
+  std::string status;
+  double energy = 0.0;  ///< h at the final x
+  double grad_norm = 0.0;
+  double initial_grad_norm = 0.0;
+  double grad_target = 0.0;
+};
+
+/// Local_TR (Kopaničáková 2019, Alg. 4.1) with the radius update of Alg. 4.3 line 2, as a reusable core: the
+/// single-level TrustRegion solver runs it to convergence, RMTR runs it for μ iterations as a smoother on each
+/// level's model h_l. Gradient and Hessian are assembled only at accepted points; a rejected step re-solves the
+/// subproblem with the smaller radius (the dogleg without refactoring). The object keeps the dogleg's CHOLMOD
+/// analysis across runs, so one instance per level (per Hessian pattern) should be reused.
+class LocalTrustRegion {
+ public:
+  /// `name` prefixes the messages of the SolveErrors it throws.
+  explicit LocalTrustRegion(TrustRegionParams params = {}, std::string name = "local-tr");
+  const TrustRegionParams& params() const { return m_params; }
+
+  /// Runs up to control.max_iters iterations on h from x (updated in place) with radius Δ (updated in place).
+  /// Throws SolveError when h or ∇h is not finite at the start or at an accepted point.
+  LocalTrResult run(const LevelModel& h, VecX& x, double& radius, const LocalTrControl& control);
+
+  /// ∇h at the x run() returned (for RMTR's restriction of the fine gradient, eq. 4.4).
+  const VecX& gradient() const { return m_g; }
+  /// Accumulated over runs since the last reset().
+  const TrCounters& counters() const { return m_counters; }
+  const std::vector<TrIteration>& history() const { return m_history; }
+  void reset();
+
+ private:
+  /// Solves subproblem (4.1) at the current point with radius Δ.
+  linalg::QpResult solve_qp(double radius, double initial_grad_norm);
+
+  TrustRegionParams m_params;
+  std::string m_name;
+  linalg::Dogleg m_dogleg;
+  linalg::BlockMatrix3 m_hessian;
+  VecX m_g, m_g_trial, m_trial;
+  TrCounters m_counters;
+  std::vector<TrIteration> m_history;
+};
+
+/// The single-level trust-region method (Kopaničáková 2019, Alg. 4.1, Table 2) on the exact Hessian, with the
+/// dogleg ("tr-dogleg", the paper's TR, §7.3) or Steihaug-Toint CG ("tr-stcg") as subproblem solver.
+/// One Stop iteration is one trust-region iteration, accepted or rejected. Trace rows: one per iteration; `step`
+/// is ‖s‖ of an accepted step and 0 for a rejected one (the iterate did not move); history() has the radii and ρ.
+/// Stops on Stop's gradient and time tests, and as "stalled" on the stagnation clause of (7.1) or when no model
+/// decrease is left in floating point (predicted decrease ≤ 0, or Δ below round-off of x). "stalled" is not
+/// converged: the gradient target was not met, whatever the paper's criterion would say.
+class TrustRegion final : public NonlinearSolver {
+ public:
+  /// An empty name is "tr-dogleg" or "tr-stcg", after params.qp.
+  explicit TrustRegion(TrustRegionParams params = {}, std::string name = "");
+  std::string name() const override { return m_name; }
+  /// Report counters: accepted, rejected, hessian_assemblies, gradient_assemblies, energy_evaluations, qp_calls,
+  /// cg_iterations, factorizations, cholmod_fallbacks, final_radius.
+  SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  /// Iterations of the last minimize().
+  const std::vector<TrIteration>& history() const { return m_core.history(); }
+
+ private:
+  std::string m_name;
+  LocalTrustRegion m_core;
+};
+
+}  // namespace mgcloth::solvers
