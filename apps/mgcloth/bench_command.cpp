@@ -10,6 +10,7 @@
 #include <mgcloth/embedded/plot_convergence.hpp>
 #include <mgcloth/embedded/plot_scalability.hpp>
 #include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/sim/shell_bench.hpp>
 
 #include <fmt/format.h>
 
@@ -51,6 +52,14 @@ struct ScalabilityArgs {
   int threads = 0;
   bool quiet = false;
 } g_scal;
+
+struct ShellArgs {
+  std::vector<std::string> scenes;
+  std::string levels = "1,2,3,4", solvers = "tr-dogleg,tr-stcg", out;
+  double time_step = 0.0, max_seconds = 0.0;
+  int max_iters = 0, threads = 0;
+  bool quiet = false;
+} g_shell;
 
 struct ProcessResult {
   bool started = false;
@@ -170,7 +179,9 @@ auto with_prefix(const std::string& option, F&& f) {
   }
 }
 
-std::vector<Index> parse_vertex_list(const std::string& list) {
+/// A comma-separated list of integers in [lo, hi] for `option`; `what` and `example` name them in messages.
+std::vector<Index> parse_int_list(const std::string& list, const char* option, const char* what, const char* example,
+                                  long long lo, long long hi) {
   std::vector<Index> out;
   size_t start = 0;
   while (true) {
@@ -181,13 +192,17 @@ std::vector<Index> parse_vertex_list(const std::string& list) {
     long long n = 0;
     const auto [ptr, ec] = std::from_chars(item.data(), item.data() + item.size(), n);
     if (item.empty() || ec != std::errc() || ptr != item.data() + item.size())
-      throw_input_error("--vertices: \"{}\" is not a vertex count (expected a list like 40000,80000)", item);
-    if (n < 4 || n > 5'000'000) throw_input_error("--vertices: {} is out of range [4, 5000000]", n);
+      throw_input_error("{}: \"{}\" is not a {} (expected a list like {})", option, item, what, example);
+    if (n < lo || n > hi) throw_input_error("{}: {} is out of range [{}, {}]", option, n, lo, hi);
     out.push_back(static_cast<Index>(n));
     if (end == std::string::npos) break;
     start = end + 1;
   }
   return out;
+}
+
+std::vector<Index> parse_vertex_list(const std::string& list) {
+  return parse_int_list(list, "--vertices", "vertex count", "40000,80000", 4, 5'000'000);
 }
 
 std::string seconds_or_dash(const std::optional<double>& s) { return s ? fmt::format("{:.3f}", *s) : "-"; }
@@ -293,6 +308,38 @@ int run_scalability_command() {
   return 0;
 }
 
+int run_shells_command() {
+  sim::ShellBenchOptions opt;
+  opt.levels.clear();
+  for (Index v : parse_int_list(g_shell.levels, "--levels", "level", "1,2,3,4", 1, 9)) opt.levels.push_back(v);
+  opt.solvers = with_prefix("--solvers", [] { return sim::parse_solver_list(g_shell.solvers); });
+  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  opt.time_step = g_shell.time_step;
+  opt.max_iters = g_shell.max_iters;
+  opt.max_seconds = g_shell.max_seconds;
+  opt.threads = g_shell.threads;
+  std::vector<sim::Scene> scenes;
+  for (const auto& f : g_shell.scenes) {
+    check_scene_file(f);
+    scenes.push_back(sim::load_scene(f));
+  }
+  const fs::path out = g_shell.out;
+  prepare_out_dir(out);
+  set_log_level(g_shell.quiet);
+  const auto rows = sim::run_shell_bench(scenes, opt);
+  write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
+  write_file_atomic(out / "shells.json", sim::shell_bench_json(rows, opt).dump(2) + "\n");
+  std::string table = fmt::format("{:<12} {:>5} {:>7} {:<12} {:>10} {:>11} {:>10} {:>9}\n", "shell", "level", "dofs",
+                                  "solver", "iterations", "status", "rel_grad", "wall_s");
+  for (const auto& r : rows)
+    table += fmt::format("{:<12} {:>5} {:>7} {:<12} {:>10} {:>11} {:>10.2e} {:>9.2f}\n", r.shell, r.level, r.dofs,
+                         r.solver, r.iterations, r.status,
+                         r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.wall_s);
+  std::fputs(table.c_str(), stdout);
+  std::printf("wrote %s: shells.csv, shells.json\n", out.string().c_str());
+  return 0;
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
@@ -328,11 +375,24 @@ void add_bench_command(CLI::App& app) {
   scal->add_option("--rel-grad", g_scal.rel_grad, "Stop each step at this relative gradient norm")->default_val(1e-2);
   scal->add_option("--threads,-j", g_scal.threads, "Worker threads (default: the scene's)");
   scal->add_flag("--quiet,-q", g_scal.quiet, "No progress log");
+
+  auto* sh = bench->add_subcommand(
+      "shells", "Iterations and wall time of shell solvers on the first step of shell scenes per level (Kopanicakova 2019, Table 3)");
+  sh->add_option("scenes", g_shell.scenes, "Shell scene files (JSON)")->required();
+  sh->add_option("--levels", g_shell.levels, "Comma-separated subdivision levels")->default_val("1,2,3,4");
+  sh->add_option("--solvers", g_shell.solvers, "Comma-separated solvers, NAME or NAME@key=value@...")->default_val("tr-dogleg,tr-stcg");
+  sh->add_option("--out,-o", g_shell.out, "Output folder (created if missing)")->required();
+  sh->add_option("--time-step", g_shell.time_step, "Step size (default: the scenes' time_step)");
+  sh->add_option("--max-iters", g_shell.max_iters, "Iteration cap per solve (default: the scenes' solver.max_iters)");
+  sh->add_option("--max-seconds", g_shell.max_seconds, "Wall-time cap per solve, seconds");
+  sh->add_option("--threads,-j", g_shell.threads, "Worker threads (default: all cores)");
+  sh->add_flag("--quiet,-q", g_shell.quiet, "No progress log");
 }
 
 int run_bench_command(CLI::App& bench) {
   if (bench.got_subcommand("convergence")) return run_convergence_command();
   if (bench.got_subcommand("scalability")) return run_scalability_command();
+  if (bench.got_subcommand("shells")) return run_shells_command();
   return 1;
 }
 

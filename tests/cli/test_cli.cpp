@@ -421,3 +421,38 @@ TEST_F(Cli, BenchRejectsBadInputWithOneLine) {
   EXPECT_NE(run("bench").code, 0);
   EXPECT_FALSE(fs::exists(dir / "o"));
 }
+
+// A shell scene from the CLI: frames of the limit surface, probes per step, resume to the same result, and the
+// shell benchmark's table files.
+TEST_F(Cli, ShellSceneRunsWritesProbesAndResumes) {
+  const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_drape.json";
+  const fs::path a = dir / "a", b = dir / "b";
+  Result r = run(fmt::format("run {} --level 1 --frames 3 -q -o {}", scene, a.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (int f = 0; f <= 3; ++f) EXPECT_TRUE(fs::exists(a / fmt::format("frame_{:05d}.obj", f))) << f;
+  const auto frame = mgcloth::mesh::read_obj(a / "frame_00003.obj");
+  EXPECT_EQ(frame.num_triangles(), 16 * 9 * 2);  // 16 real faces, 3 x 3 display quads each
+  std::ifstream probes(a / "probes.csv");
+  std::string header, line;
+  std::getline(probes, header);
+  EXPECT_EQ(header, "step,load_factor,probe,x,y,z,ux,uy,uz");
+  int rows = 0;
+  while (std::getline(probes, line)) ++rows;
+  EXPECT_EQ(rows, 3 * 3);  // three probes, three steps
+  // Interrupted after frame 1 and resumed: the same final frame as the uninterrupted run.
+  ASSERT_EQ(run(fmt::format("run {} --level 1 --frames 1 -q -o {}", scene, b.string())).code, 0);
+  r = run(fmt::format("run {} --level 1 --frames 3 -q --resume -o {}", scene, b.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(mgcloth::read_file(a / "frame_00003.obj"), mgcloth::read_file(b / "frame_00003.obj"));
+  EXPECT_EQ(mgcloth::read_file(a / "probes.csv"), mgcloth::read_file(b / "probes.csv"));
+
+  r = run(fmt::format("bench shells {} --levels 1 --solvers tr-dogleg -q -o {}", scene, (dir / "bench").string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "bench" / "shells.csv"));
+  EXPECT_NE(r.out.find("drape"), std::string::npos) << r.out;
+  r = run(fmt::format("bench shells {} --levels 0 -o {}", scene, (dir / "bench").string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("--levels: 0 is out of range [1, 9]"), std::string::npos) << r.out;
+  r = run(fmt::format("run {} --level 12", scene));
+  EXPECT_NE(r.code, 0);
+}

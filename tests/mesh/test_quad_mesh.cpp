@@ -7,6 +7,8 @@
 #include <map>
 #include <set>
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 
 namespace mgcloth::mesh {
 namespace {
@@ -167,6 +169,66 @@ TEST(QuadMesh, ValidateNamesTheBadElement) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("x.obj: quad 3"), std::string::npos) << e.what();
   }
+}
+
+std::filesystem::path write_temp(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_quad_" + name);
+  std::ofstream(path) << text;
+  return path;
+}
+
+std::string error_of(const std::filesystem::path& path, bool ghosts = true) {
+  try {
+    read_quad_obj(path, 1.0, ghosts);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A 2 x 1 quad strip with vt: read with its material coordinates, ghost layer added (a 4 x 3 grid of cells), or
+// with the ghost faces given as group "ghost".
+TEST(QuadObj, ReadsQuadsWithMaterialCoordinatesAndGhosts) {
+  const std::string strip =
+      "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\n"
+      "vt 0 0\nvt 0.5 0\nvt 1 0\nvt 0 0.5\nvt 0.5 0.5\nvt 1 0.5\n";
+  const auto path = write_temp("strip.obj", strip + "f 1/1 2/2 5/5 4/4\nf 2/2 3/3 6/6 5/5\n");
+  const QuadMesh m = read_quad_obj(path, 2.0);
+  EXPECT_EQ(m.num_faces(), 4 * 3);
+  EXPECT_EQ(m.num_vertices(), 5 * 4);
+  EXPECT_EQ(m.num_real_vertices(), 6);
+  EXPECT_NEAR(m.u(0, 2), 2.0, 1e-15);  // vt 1 0 scaled by 2
+  EXPECT_NEAR(m.u(1, 5), 1.0, 1e-15);
+  EXPECT_NEAR(m.u.row(0).minCoeff(), -1.0, 1e-15);  // ghost ring, one cell of 1 m out
+  expect_valid(m, 1.0);
+  const QuadMesh bare = read_quad_obj(path, 1.0, false);
+  EXPECT_EQ(bare.num_faces(), 2);
+  EXPECT_TRUE(bare.ghost_face.empty());
+
+  // Ghost faces modelled in the file: the real strip with a ghost quad on each side.
+  const auto given = write_temp("given.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 0 0\nv 2 1 0\n"
+                                             "f 1 2 4 3\ng ghost\nf 2 5 6 4\n");
+  const QuadMesh g = read_quad_obj(given);
+  ASSERT_EQ(g.num_faces(), 2);
+  EXPECT_FALSE(g.is_ghost_face(0));
+  EXPECT_TRUE(g.is_ghost_face(1));
+  EXPECT_TRUE(g.is_ghost_vertex(4));
+  EXPECT_FALSE(g.is_ghost_vertex(1));
+}
+
+TEST(QuadObj, BadFilesNameTheFileAndElement) {
+  EXPECT_NE(error_of("/nonexistent/mesh.obj").find("/nonexistent/mesh.obj"), std::string::npos);
+  const auto tri = write_temp("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\nf 1 2 3\n");
+  EXPECT_NE(error_of(tri).find("face 2 has 3 corners"), std::string::npos) << error_of(tri);
+  const auto seam = write_temp("seam.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 0 0\nv 2 1 0\n"
+                                           "vt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvt 5 5\nvt 2 0\nvt 2 1\n"
+                                           "f 1/1 2/2 4/4 3/3\nf 2/5 5/6 6/7 4/4\n");
+  EXPECT_NE(error_of(seam).find("point 2 has two texture coordinates"), std::string::npos) << error_of(seam);
+  const auto nonmanifold = write_temp("nm.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 1 0 1\nv 0 0 1\n"
+                                                "v 0 0 -1\nv 1 0 -1\nf 1 2 4 3\nf 2 1 6 5\nf 1 2 8 7\n");
+  EXPECT_NE(error_of(nonmanifold, false).find("edge (1, 2)"), std::string::npos) << error_of(nonmanifold, false);
+  const auto unused = write_temp("unused.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 5 5 5\nf 1 2 4 3\n");
+  EXPECT_NE(error_of(unused).find("point 5 belongs to no quad"), std::string::npos) << error_of(unused);
 }
 
 }  // namespace

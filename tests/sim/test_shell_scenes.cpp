@@ -68,6 +68,25 @@ TEST(ShellPlate, CentreDeflectionConvergesToKirchhoffSolutions) {
   }
 }
 
+// Static load stepping: step k of K applies the load factor k / K (recorded in the step's statistics); in the
+// linear regime the deflection follows it.
+TEST(ShellPlate, StaticLoadSteppingScalesTheLoad) {
+  Json j = plate("fixed", 2);
+  j["frames"] = 4;
+  sim::Simulator sim(sim::parse_scene(j, "plate.json", "."));
+  std::vector<double> w, factor;
+  for (int k = 0; k < 4; ++k) {
+    const auto st = sim.advance_frame();
+    factor.push_back(st.back().load_factor);
+    w.push_back(sim.shells()[0]->probes()[0].u.z());
+  }
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_DOUBLE_EQ(factor[k], (k + 1) / 4.0);
+    EXPECT_NEAR(w[k] / w[3], (k + 1) / 4.0, 1e-4) << "step " << k + 1;
+  }
+  EXPECT_EQ(sim.shells()[0]->v().norm(), 0.0);
+}
+
 // TR converges on the Trampoline at level 3 (1,083 dofs, dt = 1 s): the sag is physical (about 3 cm under the
 // cloth's weight), symmetric, and the fixed edges stay put.
 TEST(ShellScenes, TrustRegionConvergesOnTheTrampolineAtLevel3) {

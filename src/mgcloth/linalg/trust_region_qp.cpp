@@ -131,7 +131,7 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
   return out;
 }
 
-ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts) {
+ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts, double start) {
   // CHOLMOD "factorizes" a matrix with NaN entries (its pivot tests compare false) and the solve returns NaN.
   for (const Mat3& b : H.blocks())
     if (!b.allFinite()) throw SolveError("factorize_shifted: the matrix has a non-finite entry");
@@ -141,7 +141,10 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
   double scale = 0.0;
   for (Index i = 0; i < H.rows(); ++i) scale = std::max(scale, H.block(H.diagonal(i)).diagonal().cwiseAbs().maxCoeff());
   if (scale == 0.0) scale = 1.0;
-  for (double shift = 1e-8 * scale; f.attempts < max_attempts; shift *= 10.0) {
+  // Successive Hessians of one solve need similar shifts: starting a decade below the last one saves most of the
+  // failed factorizations of a search from 1e-8·max|diag| each time.
+  const double first = std::max(1e-8 * scale, start > 0.0 ? 0.1 * start : 0.0);
+  for (double shift = first; f.attempts < max_attempts; shift *= 10.0) {
     ++f.attempts;
     if (solver.factorize(H, shift)) {
       f.shift = shift;
@@ -149,7 +152,7 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
     }
   }
   throw SolveError(fmt::format("factorize_shifted: H + λI not positive definite after {} attempts (λ up to {:.3e})",
-                               f.attempts, 1e-8 * scale * std::pow(10.0, f.attempts - 2)));
+                               f.attempts, first * std::pow(10.0, f.attempts - 2)));
 }
 
 void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
@@ -157,7 +160,6 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
   m_gg = g.squaredNorm();
   m_g_norm = std::sqrt(m_gg);
   m_prepared = true;
-  m_shift = 0.0;
   if (m_g_norm == 0.0) {
     m_newton = VecX::Zero(g.size());
     m_gHg = m_gp = m_gHp = m_pHp = m_newton_norm = 0.0;
@@ -166,7 +168,7 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
   VecX Hv;
   H.multiply(g, Hv);
   m_gHg = g.dot(Hv);
-  const auto f = factorize_shifted(m_cholmod, H);
+  const auto f = factorize_shifted(m_cholmod, H, 40, m_shift);
   m_factorizations += f.attempts;
   m_shift = f.shift;
   if (f.shift > 0.0) ++m_fallbacks;

@@ -43,9 +43,11 @@ struct ShiftedFactorization {
   int attempts = 0;    ///< numeric factorizations tried
 };
 
-/// Factorizes H, or H + λI when CHOLMOD reports H not positive definite, with λ = 1e-8·max|diag H|, then ×10 per
-/// failed attempt, until the factorization succeeds. Throws SolveError after `max_attempts` failures.
-ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts = 40);
+/// Factorizes H, or H + λI when CHOLMOD reports H not positive definite, with λ from max(1e-8·max|diag H|,
+/// start / 10), then ×10 per failed attempt, until the factorization succeeds (`start`: the shift a previous,
+/// similar matrix needed; 0 for none). Throws SolveError after `max_attempts` failures.
+ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts = 40,
+                                       double start = 0.0);
 
 /// Powell's dogleg (Nocedal-Wright §4.1) on the exact Hessian. prepare() factorizes once per point x and computes
 /// the Cauchy and Newton points; step() then returns the dogleg point for any radius without refactoring, so a

@@ -27,13 +27,14 @@ void ExactNewton::direction(const physics::Objective& objective, const VecX& x, 
   ++m_hessian_assemblies;
   linalg::ShiftedFactorization f;
   try {
-    f = linalg::factorize_shifted(m_cholmod, m_hessian);
+    f = linalg::factorize_shifted(m_cholmod, m_hessian, 40, m_last_shift);
   } catch (const SolveError& e) {
     throw SolveError(fmt::format("{}: {}", m_name, e.what()));
   }
   m_factorizations += f.attempts;
   if (f.shift > 0.0) ++m_fallbacks;
   m_max_shift = std::max(m_max_shift, f.shift);
+  m_last_shift = f.shift;
   m_cholmod.solve(-g, p);
   // With H + λI positive definite p is a descent direction in exact arithmetic; round-off in a nearly singular
   // system can still break that.

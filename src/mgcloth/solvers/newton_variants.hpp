@@ -43,6 +43,7 @@ class ExactNewton final : public NonlinearSolver {
   linalg::CholmodSolver m_cholmod;
   linalg::BlockMatrix3 m_hessian;
   int m_hessian_assemblies = 0, m_factorizations = 0, m_fallbacks = 0, m_steepest = 0;
+  double m_last_shift = 0.0;
   double m_max_shift = 0.0;
 };
 

@@ -155,8 +155,11 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       last_df = std::abs(it.actual);
       last_dx = it.step_norm;
     } else {
+      // (7.1)'s second clause guards against meandering by tiny accepted steps; a rejected step leaves x as it was
+      // but says nothing about convergence (far from a minimum it is a step into an infeasible or badly modelled
+      // region), so it does not trigger the clause.
       ++m_counters.rejected;
-      last_df = last_dx = 0.0;
+      last_df = last_dx = kInf;
     }
     last_radius = radius;
     if (control.radius_cap) next = control.radius_cap(x, next);

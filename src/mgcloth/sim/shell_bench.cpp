@@ -1,0 +1,101 @@
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/sim/simulator.hpp>
+
+namespace mgcloth::sim {
+
+namespace {
+double counter(const ShellBenchRow& r, const std::string& name) {
+  for (const auto& [k, v] : r.counters)
+    if (k == name) return v;
+  return 0.0;
+}
+}  // namespace
+
+std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& opt) {
+  if (opt.threads > 0) set_num_threads(opt.threads);
+  std::vector<ShellBenchRow> rows;
+  for (const Scene& base : scenes) {
+    if (base.shells.empty()) throw_input_error("{}: the scene has no shells", base.file);
+    for (int level : opt.levels)
+      for (const SolverSpec& spec : opt.solvers) {
+        Scene scene = base;
+        scene.cloths.clear();
+        for (auto& sh : scene.shells) sh.level = level;
+        if (opt.time_step > 0.0) {
+          scene.frame_time = opt.time_step;
+          scene.substeps = 1;
+        }
+        scene.frames = 1;
+        scene.solver.name = spec.config.name;
+        scene.solver.params = spec.config.params;
+        if (opt.max_iters > 0) scene.solver.stop.max_iters = opt.max_iters;
+        if (opt.max_seconds > 0.0) scene.solver.stop.max_seconds = opt.max_seconds;
+        Simulator sim(scene);
+        for (size_t s = 0; s < sim.shells().size(); ++s) {
+          ShellBenchRow row;
+          row.scene = base.file;
+          row.shell = sim.shells()[s]->name();
+          row.solver = spec.label;
+          row.level = level;
+          row.dofs = static_cast<Index>(sim.shells()[s]->x().size());
+          row.time_step = scene.step_size();
+          VecX x;
+          solvers::Problem problem = sim.prepare_shell_problem(s, x);
+          Timer timer;
+          try {
+            const auto rep = sim.shell_solver(s).minimize(problem, x, scene.solver.stop, nullptr);
+            row.iterations = rep.iterations;
+            row.converged = rep.converged;
+            row.status = rep.status;
+            row.energy = rep.energy;
+            row.grad_norm = rep.grad_norm;
+            row.initial_grad_norm = rep.initial_grad_norm;
+            row.counters = rep.counters;
+          } catch (const SolveError& e) {
+            row.status = "diverged";
+            logger().info("{} level {} {}: {}", row.shell, level, spec.label, e.what());
+          }
+          row.wall_s = timer.seconds();
+          logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
+                        spec.label, row.iterations, row.status, row.wall_s);
+          rows.push_back(std::move(row));
+        }
+      }
+  }
+  return rows;
+}
+
+std::string shell_bench_csv(const std::vector<ShellBenchRow>& rows) {
+  std::string out =
+      "scene,shell,level,dofs,time_step,solver,iterations,converged,status,energy,grad_norm,rel_grad,wall_s,accepted,"
+      "rejected,hessian_assemblies,qp_calls,cg_iterations\n";
+  for (const auto& r : rows)
+    out += fmt::format("{},{},{},{},{:g},{},{},{},{},{:.17g},{:.6e},{:.6e},{:.4f},{:g},{:g},{:g},{:g},{:g}\n", r.scene,
+                       r.shell, r.level, r.dofs, r.time_step, r.solver, r.iterations, r.converged ? 1 : 0, r.status,
+                       r.energy, r.grad_norm, r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0,
+                       r.wall_s, counter(r, "accepted"), counter(r, "rejected"), counter(r, "hessian_assemblies"),
+                       counter(r, "qp_calls"), counter(r, "cg_iterations"));
+  return out;
+}
+
+Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOptions& opt) {
+  Json j;
+  j["levels"] = opt.levels;
+  j["threads"] = opt.threads > 0 ? opt.threads : num_threads();
+  j["results"] = Json::array();
+  for (const auto& r : rows) {
+    Json c = Json::object();
+    for (const auto& [k, v] : r.counters) c[k] = v;
+    j["results"].push_back({{"scene", r.scene}, {"shell", r.shell}, {"level", r.level}, {"dofs", r.dofs},
+                            {"time_step", r.time_step}, {"solver", r.solver}, {"iterations", r.iterations},
+                            {"converged", r.converged}, {"status", r.status}, {"energy", r.energy},
+                            {"grad_norm", r.grad_norm}, {"initial_grad_norm", r.initial_grad_norm},
+                            {"wall_s", r.wall_s}, {"counters", c}});
+  }
+  return j;
+}
+
+}  // namespace mgcloth::sim

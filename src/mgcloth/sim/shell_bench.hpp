@@ -1,0 +1,38 @@
+#pragma once
+#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/sim/scene.hpp>
+
+namespace mgcloth::sim {
+
+/// The single-level solver study of Kopaničáková 2019 (Table 3, Fig. 10): each shell scene at each level, the
+/// scene's first time step solved by each solver from the same start, with the scene's stopping criterion.
+struct ShellBenchOptions {
+  std::vector<int> levels{1, 2, 3, 4};
+  std::vector<SolverSpec> solvers;
+  double time_step = 0.0;   ///< > 0: overrides the scenes' time_step (one step per frame)
+  int max_iters = 0;        ///< > 0: overrides the scenes' solver.max_iters
+  double max_seconds = 0.0; ///< > 0: wall-time cap per solve
+  int threads = 0;
+};
+
+struct ShellBenchRow {
+  std::string scene, shell, solver;
+  int level = 0;
+  Index dofs = 0;
+  double time_step = 0.0;
+  int iterations = 0;
+  bool converged = false;
+  std::string status;
+  double energy = 0.0, grad_norm = 0.0, initial_grad_norm = 0.0;
+  double wall_s = 0.0;
+  std::vector<std::pair<std::string, double>> counters;
+};
+
+/// Runs every (scene, level, solver); a solve that diverges (SolveError) is recorded with status "diverged".
+std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& options);
+/// scene,shell,level,dofs,time_step,solver,iterations,converged,status,energy,grad_norm,rel_grad,wall_s,
+/// accepted,rejected,hessian_assemblies,qp_calls,cg_iterations
+std::string shell_bench_csv(const std::vector<ShellBenchRow>& rows);
+Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOptions& options);
+
+}  // namespace mgcloth::sim
