@@ -2,6 +2,8 @@
 #include <mgcloth/linalg/block_matrix.hpp>
 #include <mgcloth/linalg/cholmod_solver.hpp>
 
+#include "block_fixtures.hpp"
+
 #include <gtest/gtest.h>
 
 #include <random>
@@ -12,25 +14,7 @@ using namespace mgcloth::linalg;
 namespace {
 /// A random SPD block matrix on a ring-with-chords graph.
 BlockMatrix3 random_spd(Index n, std::uint64_t seed) {
-  std::vector<std::pair<Index, Index>> pairs;
-  for (Index i = 0; i < n; ++i) {
-    pairs.emplace_back(i, (i + 1) % n);
-    pairs.emplace_back(i, (i + 7) % n);
-  }
-  BlockMatrix3 A(n, pairs);
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (Index r = 0; r < n; ++r)
-    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
-      const Index c = A.col_indices()[k];
-      if (c < r) continue;
-      Mat3 b;
-      for (int i = 0; i < 9; ++i) b.data()[i] = u(rng);
-      if (c == r) b = b * b.transpose() + 20.0 * Mat3::Identity();
-      A.block(k) = b;
-      A.block(A.find(c, r)) = b.transpose();
-    }
-  return A;
+  return random_ring_matrix(n, seed, 7, 20.0);
 }
 }  // namespace
 

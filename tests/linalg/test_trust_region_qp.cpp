@@ -2,6 +2,8 @@
 #include <mgcloth/linalg/trust_region_qp.hpp>
 
 #include <Eigen/Dense>
+#include "block_fixtures.hpp"
+
 #include <gtest/gtest.h>
 
 #include <random>
@@ -14,25 +16,7 @@ namespace {
 /// A random symmetric block matrix on a ring-with-chords graph, shifted by `shift`·I: with shift = 0 it is SPD
 /// (diagonally heavy), with a shift inside its spectrum it is indefinite.
 BlockMatrix3 random_symmetric(Index n, std::uint64_t seed, double shift) {
-  std::vector<std::pair<Index, Index>> pairs;
-  for (Index i = 0; i < n; ++i) {
-    pairs.emplace_back(i, (i + 1) % n);
-    pairs.emplace_back(i, (i + 5) % n);
-  }
-  BlockMatrix3 A(n, pairs);
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (Index r = 0; r < n; ++r)
-    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
-      const Index c = A.col_indices()[k];
-      if (c < r) continue;
-      Mat3 b;
-      for (int i = 0; i < 9; ++i) b.data()[i] = u(rng);
-      if (c == r) b = b * b.transpose() + (14.0 - shift) * Mat3::Identity();
-      A.block(k) = b;
-      A.block(A.find(c, r)) = b.transpose();
-    }
-  return A;
+  return random_ring_matrix(n, seed, 5, 14.0 - shift);
 }
 
 Eigen::VectorXd eigenvalues(const BlockMatrix3& A) {

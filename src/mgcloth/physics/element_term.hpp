@@ -25,6 +25,18 @@ struct ElementColors {
 /// whose element order is spatially coherent), single elements otherwise.
 ElementColors color_elements(const std::vector<Index>& flat_vertices, int arity, Index num_vertices, Index chunk = 0);
 
+/// f(e) for every element, color by color, each chunk of a color on one thread in element order: the race-free
+/// and bitwise deterministic loop of every assembler.
+template <class F>
+void for_each_colored(const ElementColors& colors, F&& f) {
+  for (Index c = 0; c < colors.num_colors(); ++c) {
+    const Index first = colors.color_offsets[c];
+    parallel_for(colors.color_offsets[c + 1] - first, [&](Index k) {
+      for (Index i = colors.chunk_offsets[first + k]; i < colors.chunk_offsets[first + k + 1]; ++i) f(colors.elements[i]);
+    }, 2);
+  }
+}
+
 /// The shared parallel assembler: a term with elements of K vertices implements element(), the value, gradient
 /// and Hessian of one element from its K local positions; value/gradient/Hessian assembly is written once here.
 template <int K>
@@ -109,16 +121,9 @@ class ElementTerm : public Term {
   }
 
  private:
-  /// f(e) for every element, color by color, each chunk of a color on one thread in element order.
   template <class F>
   void for_each_colored(F&& f) const {
-    for (Index c = 0; c < m_colors.num_colors(); ++c) {
-      const Index first = m_colors.color_offsets[c];
-      parallel_for(m_colors.color_offsets[c + 1] - first, [&](Index k) {
-        for (Index i = m_colors.chunk_offsets[first + k]; i < m_colors.chunk_offsets[first + k + 1]; ++i)
-          f(m_colors.elements[i]);
-      }, 2);
-    }
+    physics::for_each_colored(m_colors, std::forward<F>(f));
   }
 
   std::vector<Element> m_elements;

@@ -233,23 +233,13 @@ double ShellTerm::element(Index e, const VecX& x, VecX* g, MatX* H) const {
   return energy;
 }
 
-template <class F>
-void ShellTerm::for_each_colored(F&& f) const {
-  for (Index c = 0; c < m_colors.num_colors(); ++c) {
-    const Index first = m_colors.color_offsets[c];
-    parallel_for(m_colors.color_offsets[c + 1] - first, [&](Index k) {
-      for (Index i = m_colors.chunk_offsets[first + k]; i < m_colors.chunk_offsets[first + k + 1]; ++i)
-        f(m_colors.elements[i]);
-    }, 2);
-  }
-}
 
 double ShellTerm::value(const VecX& x) const {
   return parallel_sum(num_elements(), [&](Index e) { return element(e, x, nullptr, nullptr); });
 }
 
 void ShellTerm::add_gradient(const VecX& x, VecX& g) const {
-  for_each_colored([&](Index e) {
+  physics::for_each_colored(m_colors, [&](Index e) {
     VecX ge;
     element(e, x, &ge, nullptr);
     const auto& P = m_faces[e].points;
@@ -258,7 +248,7 @@ void ShellTerm::add_gradient(const VecX& x, VecX& g) const {
 }
 
 void ShellTerm::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project) const {
-  for_each_colored([&](Index e) {
+  physics::for_each_colored(m_colors, [&](Index e) {
     VecX ge;
     MatX He;
     element(e, x, &ge, &He);

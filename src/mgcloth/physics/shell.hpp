@@ -69,9 +69,6 @@ class ShellTerm : public Term {
     Vec3 bbar;         ///< (b̄11, b̄22, b̄12)
     Mat3 T;            ///< covariant (E11, E22, E12) -> frame (Ẽ11, Ẽ22, Ẽ12)
   };
-  template <class F>
-  void for_each_colored(F&& f) const;
-
   ShellMaterial m_material;
   Vec3 m_gravity;
   double m_gravity_scale = 1.0;
