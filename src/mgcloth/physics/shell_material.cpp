@@ -40,6 +40,8 @@ void ShellMaterial::validate() const {
   positive(thickness, "thickness");
   positive(density, "density");
   if (!std::isfinite(warp_angle_deg)) throw_input_error("shell material: warp_angle must be finite");
+  if (!(woven_energy_floor >= 0.0 && woven_energy_floor < 1.0))
+    throw_input_error("shell material: energy_floor must lie in [0, 1) (got {})", woven_energy_floor);
   if (thickness_points < 2 || thickness_points > 5)
     throw_input_error("shell material: thickness_points must be 2-5 (one point has no bending) (got {})", thickness_points);
   if (model == Model::stvk) {
@@ -98,21 +100,46 @@ double shell_energy_density(const ShellMaterial& m, const Vec3& e, Vec3* g, Mat3
   m.phi[2].evaluate(e[1] * e[1], f3, d3, dd3);
   m.phi[3].evaluate(e[2] * e[2], f4, d4, dd4);
   const auto& k = m.k;
-  // The fit is bounded below only while its responses keep a positive slope: where φ3' < 0 (Ẽ22² > 0.102 for
-  // denim) it falls without bound. There the energy is +∞, so that solvers reject such trial points instead of
-  // running into the unbounded region. (Inside, the fit is as published: with the linear coupling k2 φ2 and
-  // softening φ1, φ3 it is negative at moderate opposite strains, about −2e4 J/m³ at Ẽ11 = −Ẽ22 = 0.1.)
-  if (!(d1 > 0.0) || !(d3 > 0.0) || !(d4 > 0.0)) return kInf;
-  const double psi = 0.5 * k[0] * f1 + k[1] * f2 + 0.5 * k[2] * f3 + k[3] * f4;
-  if (!std::isfinite(psi)) return kInf;
-  if (g) *g = Vec3(k[0] * d1 * e[0] + k[1] * d2 * e[1], k[2] * d3 * e[1] + k[1] * d2 * e[0], 2.0 * k[3] * d4 * e[2]);
-  if (H) {
-    H->setZero();
-    (*H)(0, 0) = k[0] * (d1 + 2.0 * e[0] * e[0] * dd1) + k[1] * dd2 * e[1] * e[1];
-    (*H)(1, 1) = k[2] * (d3 + 2.0 * e[1] * e[1] * dd3) + k[1] * dd2 * e[0] * e[0];
-    (*H)(0, 1) = (*H)(1, 0) = k[1] * (d2 + dd2 * e[0] * e[1]);
-    (*H)(2, 2) = 2.0 * k[3] * (d4 + 2.0 * e[2] * e[2] * dd4);
+  double psi = 0.5 * k[0] * f1 + k[1] * f2 + 0.5 * k[2] * f3 + k[3] * f4;
+  if (psi == kInf) return kInf;  // overflow of a stiffening response: an infinitely stiff state
+  // Beyond the paper: the fit's responses soften while its coupling k2 φ2 stays linear, so ψ turns negative at
+  // moderate opposite strains (about −2e4 J/m³ at Ẽ11 = −Ẽ22 = 0.1 for denim) and, where φ3' < 0 (Ẽ22² > 0.102),
+  // falls without bound; solvers then find such states at dt = 1 s. The energy is kept at or above a fraction of
+  // the small-strain (linear orthotropic) energy ½ Ẽᵀ C₀ Ẽ, which changes nothing where the fit still has that
+  // much of its initial stiffness and makes the model bounded below and convex where it has not.
+  const double floor_fraction = m.woven_energy_floor;
+  Vec3 gfit = Vec3(k[0] * d1 * e[0] + k[1] * d2 * e[1], k[2] * d3 * e[1] + k[1] * d2 * e[0], 2.0 * k[3] * d4 * e[2]);
+  Mat3 Hfit = Mat3::Zero();
+  Hfit(0, 0) = k[0] * (d1 + 2.0 * e[0] * e[0] * dd1) + k[1] * dd2 * e[1] * e[1];
+  Hfit(1, 1) = k[2] * (d3 + 2.0 * e[1] * e[1] * dd3) + k[1] * dd2 * e[0] * e[0];
+  Hfit(0, 1) = Hfit(1, 0) = k[1] * (d2 + dd2 * e[0] * e[1]);
+  Hfit(2, 2) = 2.0 * k[3] * (d4 + 2.0 * e[2] * e[2] * dd4);
+  if (floor_fraction > 0.0) {
+    Mat3 C0;
+    C0 << k[0], k[1], 0.0, k[1], k[2], 0.0, 0.0, 0.0, 2.0 * k[3];
+    const double F = 0.5 * floor_fraction * e.dot(C0 * e);
+    // ψ = F h(ψ_fit / F): the fit itself where ψ_fit >= 2F, h(u) = 1 + e^(u − 2) below (C¹ at u = 2, so that
+    // the solvers see no kink), which decays to the floor F where the fit turns negative or falls without bound.
+    if (F > 0.0 && !(psi >= 2.0 * F)) {
+      const Vec3 gF = floor_fraction * C0 * e;
+      if (!std::isfinite(psi) || !gfit.allFinite() || !Hfit.allFinite()) {  // the fit fell without bound
+        if (g) *g = gF;
+        if (H) *H = floor_fraction * C0;
+        return F;
+      }
+      const double u = psi / F;
+      const double ex = std::exp(u - 2.0), h = 1.0 + ex, dh = ex, ddh = ex;
+      if (g) *g = (h - u * dh) * gF + dh * gfit;
+      if (H) {
+        const Vec3 w = gfit - u * gF;
+        *H = (h - u * dh) * floor_fraction * C0 + dh * Hfit + (ddh / F) * w * w.transpose();
+      }
+      return F * h;
+    }
   }
+  if (!std::isfinite(psi)) return kInf;
+  if (g) *g = gfit;
+  if (H) *H = Hfit;
   return psi;
 }
 

@@ -30,6 +30,10 @@ struct ShellMaterial {
   /// Woven (eq. 3.3): ψ = k1/2 φ1(Ẽ11²) + k2 φ2(Ẽ11 Ẽ22) + k3/2 φ3(Ẽ22²) + k4 φ4(Ẽ12²).
   std::array<double, 4> k{1.0e7, 3.0e6, 1.0e7, 7.0e6};  ///< Pa
   std::array<WovenResponse, 4> phi;  ///< empty response: φ(u) = u
+  /// Woven only, beyond the paper: ψ is kept at or above this fraction of the small-strain energy ½ Ẽᵀ C₀ Ẽ
+  /// (C₀ = ∂²ψ/∂Ẽ²(0)), since fitted responses can make ψ negative or unbounded below at moderate strains (the
+  /// denim fit does). 0 keeps the fit as published.
+  double woven_energy_floor = 0.1;
   double thickness = 0.5e-3;        ///< τ, m
   double density = 0.2;             ///< kg/m² of reference area
   double warp_angle_deg = 0.0;      ///< warp direction o1 in material (u, v) space, from the u axis

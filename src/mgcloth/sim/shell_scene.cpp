@@ -51,6 +51,7 @@ physics::ShellMaterial parse_material(JsonReader& r, std::string& preset) {
       if (k.size() != 4) r.fail("k", fmt::format("expected 4 numbers (Pa), got {}", k.size()));
       for (int i = 0; i < 4; ++i) m.k[i] = k[i];
     }
+    m.woven_energy_floor = r.number("energy_floor", m.woven_energy_floor, 0.0, 0.999);
     if (r.has("responses")) {
       auto responses = r.objects("responses");
       if (responses.size() != 4) r.fail("responses", fmt::format("expected 4 responses (phi1..phi4), got {}", responses.size()));
@@ -202,6 +203,7 @@ Json to_json(const ShellSpec& s) {
     j["material"]["poisson"] = s.material.poisson;
   } else {
     j["material"]["k"] = s.material.k;
+    j["material"]["energy_floor"] = s.material.woven_energy_floor;
     j["material"]["responses"] = Json::array();
     for (const auto& p : s.material.phi) j["material"]["responses"].push_back({{"mu", p.mu}, {"alpha", p.alpha}});
   }
