@@ -21,7 +21,7 @@ mesh::QuadMesh coarse_mesh(const ShellMeshSpec& m) {
 }  // namespace
 
 ShellBody::ShellBody(const ShellSpec& spec, const Vec3& gravity, const std::string& source)
-    : m_spec(spec), m_source(source), m_gravity(gravity) {
+    : m_spec(spec), m_source(source) {
   mesh::QuadMesh coarse = coarse_mesh(spec.mesh);
   const Transform placement{spec.translation, spec.rotation_deg};
   const Mat3 R = placement.rotation().toRotationMatrix();

@@ -75,7 +75,6 @@ class ShellBody {
 
   ShellSpec m_spec;
   std::string m_source;
-  Vec3 m_gravity;
   hierarchy::SubdivisionHierarchy m_hierarchy;
   std::unique_ptr<mesh::LimitSurface> m_surface;
   std::unique_ptr<physics::Objective> m_objective;

@@ -70,6 +70,16 @@ std::vector<StepStats> Simulator::step() {
   const double h = m_scene.step_size();
   const double t = time();
   std::vector<StepStats> out;
+  // The fields every body's row shares.
+  const auto finish = [&](StepStats& s, const std::string& name, const solvers::NonlinearSolver& solver, const Timer& timer) {
+    s.frame = m_frame + 1;
+    s.step = m_step + 1;
+    s.sim_time = t + h;
+    s.cloth = name;
+    s.solver = solver.name();
+    s.wall_ms = timer.ms();
+    out.push_back(std::move(s));
+  };
   for (size_t c = 0; c < m_cloths.size(); ++c) {
     Timer timer;
     ClothBody& body = *m_cloths[c];
@@ -85,13 +95,7 @@ std::vector<StepStats> Simulator::step() {
     const VecX before = x;
     body.finish_step(x, t + h, h);
     s.projected = static_cast<Index>(((x - before).array() != 0.0).reshaped(3, x.size() / 3).colwise().any().count());
-    s.frame = m_frame + 1;
-    s.step = m_step + 1;
-    s.sim_time = t + h;
-    s.cloth = body.name();
-    s.solver = m_solvers[c]->name();
-    s.wall_ms = timer.ms();
-    out.push_back(std::move(s));
+    finish(s, body.name(), *m_solvers[c], timer);
   }
   for (size_t i = 0; i < m_shells.size(); ++i) {
     Timer timer;
@@ -107,13 +111,7 @@ std::vector<StepStats> Simulator::step() {
     }
     body.finish_step(x, h);
     s.probes = body.probes();
-    s.frame = m_frame + 1;
-    s.step = m_step + 1;
-    s.sim_time = t + h;
-    s.cloth = body.name();
-    s.solver = m_shell_solvers[i]->name();
-    s.wall_ms = timer.ms();
-    out.push_back(std::move(s));
+    finish(s, body.name(), *m_shell_solvers[i], timer);
   }
   ++m_step;
   return out;
