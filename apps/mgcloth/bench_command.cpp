@@ -326,9 +326,13 @@ int run_shells_command() {
   const fs::path out = g_shell.out;
   prepare_out_dir(out);
   set_log_level(g_shell.quiet);
-  const auto rows = sim::run_shell_bench(scenes, opt);
-  write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
-  write_file_atomic(out / "shells.json", sim::shell_bench_json(rows, opt).dump(2) + "\n");
+  // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
+  const auto write = [&](const std::vector<sim::ShellBenchRow>& rows) {
+    write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
+    write_file_atomic(out / "shells.json", sim::shell_bench_json(rows, opt).dump(2) + "\n");
+  };
+  const auto rows = sim::run_shell_bench(scenes, opt, write);
+  write(rows);
   std::string table = fmt::format("{:<12} {:>5} {:>7} {:<12} {:>10} {:>11} {:>10} {:>9}\n", "shell", "level", "dofs",
                                   "solver", "iterations", "status", "rel_grad", "wall_s");
   for (const auto& r : rows)

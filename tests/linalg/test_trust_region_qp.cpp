@@ -2,6 +2,7 @@
 #include <mgcloth/linalg/trust_region_qp.hpp>
 
 #include <Eigen/Dense>
+#include <unsupported/Eigen/KroneckerProduct>
 #include "block_fixtures.hpp"
 
 #include <gtest/gtest.h>
@@ -50,6 +51,60 @@ std::vector<Case> cases() {
 }
 
 const std::vector<double> kRadii = {1e-4, 1e-2, 0.1, 0.5, 1.0, 3.0, 10.0, 1e3};
+
+/// m ⊗ I₃ as a BlockMatrix3 on the nonzero pattern of the symmetric scalar matrix m.
+BlockMatrix3 scalar_blocks(const Eigen::MatrixXd& m) {
+  const Index n = m.rows();
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i < n; ++i)
+    for (Index j = i + 1; j < n; ++j)
+      if (m(i, j) != 0.0) pairs.emplace_back(i, j);
+  BlockMatrix3 A(n, pairs);
+  for (Index i = 0; i < n; ++i)
+    for (Index k = A.row_offsets()[i]; k < A.row_offsets()[i + 1]; ++k)
+      A.block(k) = m(i, A.col_indices()[k]) * Mat3::Identity();
+  return A;
+}
+
+/// A dense symmetric matrix as a BlockMatrix3 with every block stored.
+BlockMatrix3 dense_blocks(const Eigen::MatrixXd& D) {
+  const Index n = D.rows() / 3;
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i < n; ++i)
+    for (Index j = i + 1; j < n; ++j) pairs.emplace_back(i, j);
+  BlockMatrix3 A(n, pairs);
+  for (Index i = 0; i < n; ++i)
+    for (Index k = A.row_offsets()[i]; k < A.row_offsets()[i + 1]; ++k)
+      A.block(k) = D.block<3, 3>(3 * i, 3 * A.col_indices()[k]);
+  return A;
+}
+
+/// A Galerkin-like metric M = PᵀP ⊗ I₃ (the shape of IᵀI in Kopaničáková 2019, eq. 4.9) for a random scalar
+/// "prolongation" P from n coarse to 2n fine points: fine point i is coarse point i, fine point n + i a convex
+/// combination of coarse points i, i + 1 and i + 3, and each fine row carries a weight in [0.3, 3], so that M is
+/// SPD, sparse, and far from a multiple of I (condition numbers 10-100 for the seeds used here).
+Eigen::MatrixXd random_metric_scalars(Index n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> w(0.0, 1.0), row_weight(0.1, 3.0);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(2 * n, n);
+  for (Index i = 0; i < n; ++i) {
+    P(i, i) = row_weight(rng);
+    const double a = w(rng), b = w(rng), c = w(rng), scale = row_weight(rng) / (a + b + c);
+    P(n + i, i) += scale * a;
+    P(n + i, (i + 1) % n) += scale * b;
+    P(n + i, (i + 3) % n) += scale * c;
+  }
+  const Eigen::MatrixXd m = P.transpose() * P;
+  return 0.5 * (m + m.transpose());
+}
+
+NormMetric random_metric(Index n, std::uint64_t seed) { return NormMetric(scalar_blocks(random_metric_scalars(n, seed))); }
+
+NormMetric identity_metric(Index n) { return NormMetric(scalar_blocks(Eigen::MatrixXd::Identity(n, n))); }
+
+Eigen::MatrixXd dense(const BlockMatrix3& A) { return Eigen::MatrixXd(A.to_sparse()); }
+
+double metric_norm(const Eigen::MatrixXd& M, const VecX& s) { return std::sqrt(s.dot(M * s)); }
 
 }  // namespace
 
@@ -222,6 +277,280 @@ TEST(TrustRegionQp, ZeroGradientGivesAZeroStep) {
   EXPECT_EQ(steihaug_cg(c.H, zero, 1.0, 0, 1e-10).s.norm(), 0.0);
   Dogleg dogleg;
   dogleg.prepare(c.H, zero);
+  EXPECT_EQ(dogleg.step(1.0).s.norm(), 0.0);
+  EXPECT_EQ(dogleg.step(1.0).model_decrease, 0.0);
+}
+
+// ---- Trust regions in a level-dependent norm ‖s‖_M (Kopaničáková 2019, eqs. 4.8-4.9) ----
+
+TEST(TrustRegionQpMetric, NormMetricMultipliesSolvesAndMeasuresInM) {
+  const Eigen::MatrixXd m = random_metric_scalars(20, 7);
+  const NormMetric metric(scalar_blocks(m));
+  EXPECT_EQ(metric.rows(), 20);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  EXPECT_LE((M - Eigen::kroneckerProduct(m, Eigen::Matrix3d::Identity())).norm(), 1e-14 * M.norm());
+  const VecX a = random_vector(60, 1), b = random_vector(60, 2);
+  VecX out;
+  metric.multiply(a, out);
+  EXPECT_LE((out - M * a).norm(), 1e-13 * (M * a).norm());
+  metric.solve(a, out);
+  EXPECT_LE((M * out - a).norm(), 1e-12 * a.norm());
+  EXPECT_NEAR(metric.dot(a, b), a.dot(M * b), 1e-12 * a.norm() * (M * b).norm());
+  EXPECT_NEAR(metric.norm(a), std::sqrt(a.dot(M * a)), 1e-13 * std::sqrt(a.dot(M * a)));
+}
+
+TEST(TrustRegionQpMetric, NormMetricRejectsWhatIsNotSpd) {
+  Eigen::MatrixXd m = random_metric_scalars(6, 3);
+  m(2, 2) = -1.0;
+  EXPECT_THROW(NormMetric{scalar_blocks(m)}, Error);
+  m = random_metric_scalars(6, 3);
+  m(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(NormMetric{scalar_blocks(m)}, Error);
+  BlockMatrix3 asymmetric = scalar_blocks(random_metric_scalars(6, 3));
+  asymmetric.block(asymmetric.find(0, 1)) *= 1.5;
+  EXPECT_THROW(NormMetric{asymmetric}, Error);
+  // A metric over other points than the vectors' is a caller's bug, not a step.
+  const auto c = cases().front();
+  const NormMetric small = identity_metric(6);
+  EXPECT_THROW(cauchy_point(c.H, c.g, 1.0, &small), Error);
+  EXPECT_THROW(steihaug_cg(c.H, c.g, 1.0, 0, 1e-10, &small), Error);
+  Dogleg dogleg;
+  EXPECT_THROW(dogleg.prepare(c.H, c.g, &small), Error);
+}
+
+TEST(TrustRegionQpMetric, IdentityMetricReproducesTheEuclideanSteps) {
+  const NormMetric identity = identity_metric(20);
+  for (const auto& c : cases()) {
+    Dogleg plain, metric;
+    plain.prepare(c.H, c.g);
+    metric.prepare(c.H, c.g, &identity);
+    EXPECT_NEAR(metric.newton_norm(), plain.newton_norm(), 1e-14 * plain.newton_norm());
+    EXPECT_EQ(metric.shift(), plain.shift());
+    for (double delta : kRadii) {
+      const auto expect_same = [&](const QpResult& a, const QpResult& b, const char* what) {
+        EXPECT_EQ(a.reason, b.reason) << what << " spd " << c.spd << " delta " << delta;
+        EXPECT_EQ(a.iterations, b.iterations) << what << " spd " << c.spd << " delta " << delta;
+        EXPECT_LE((a.s - b.s).norm(), 1e-12 * b.s.norm()) << what << " spd " << c.spd << " delta " << delta;
+        EXPECT_NEAR(a.model_decrease, b.model_decrease, 1e-12 * b.model_decrease) << what;
+        EXPECT_NEAR(a.norm, b.norm, 1e-12 * b.norm) << what;
+        EXPECT_NEAR(b.norm, b.s.norm(), 1e-14 * b.norm) << what;
+      };
+      expect_same(cauchy_point(c.H, c.g, delta, &identity), cauchy_point(c.H, c.g, delta), "cauchy");
+      for (int iters : {0, 1, 3})
+        expect_same(steihaug_cg(c.H, c.g, delta, iters, 1e-12, &identity), steihaug_cg(c.H, c.g, delta, iters, 1e-12),
+                    "cg");
+      expect_same(metric.step(delta), plain.step(delta), "dogleg");
+    }
+  }
+}
+
+TEST(TrustRegionQpMetric, StepsStayInsideTheMetricBall) {
+  for (std::uint64_t seed : {11, 12}) {
+    const NormMetric metric = random_metric(20, seed);
+    const Eigen::MatrixXd M = dense(metric.matrix());
+    bool not_l2 = false;
+    for (const auto& c : cases()) {
+      Dogleg dogleg;
+      dogleg.prepare(c.H, c.g, &metric);
+      for (double delta : kRadii) {
+        for (const auto& r : {steihaug_cg(c.H, c.g, delta, 0, 1e-12, &metric),
+                              steihaug_cg(c.H, c.g, delta, 3, 1e-12, &metric), dogleg.step(delta),
+                              cauchy_point(c.H, c.g, delta, &metric)}) {
+          const double norm = metric_norm(M, r.s);
+          EXPECT_LE(norm, delta * (1.0 + 1e-10)) << "spd " << c.spd << " delta " << delta;
+          EXPECT_NEAR(r.norm, norm, 1e-12 * norm);
+          EXPECT_NEAR(r.model_decrease, model_decrease(c.H, c.g, r.s), 1e-10 * std::max(1.0, r.model_decrease));
+          EXPECT_GT(r.model_decrease, 0.0);
+          not_l2 = not_l2 || std::abs(r.s.norm() / norm - 1.0) > 0.1;
+        }
+      }
+    }
+    // The constraint is not the ℓ2 one in disguise: ‖s‖₂ and ‖s‖_M differ by more than 10% for some steps.
+    EXPECT_TRUE(not_l2);
+  }
+}
+
+TEST(TrustRegionQpMetric, NewtonPointInsideTheMetricBallIsTheStepAndOutsideTheStepIsOnTheSphere) {
+  const NormMetric metric = random_metric(20, 21);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  for (const auto& c : cases()) {
+    if (!c.spd) continue;
+    const VecX newton = dense(c.H).ldlt().solve(-c.g);
+    const double newton_norm = metric_norm(M, newton);
+    Dogleg dogleg;
+    dogleg.prepare(c.H, c.g, &metric);
+    EXPECT_EQ(dogleg.shift(), 0.0);
+    EXPECT_NEAR(dogleg.newton_norm(), newton_norm, 1e-12 * newton_norm);
+    for (double factor : {1.0 + 1e-6, 2.0, 1e3}) {
+      const double delta = factor * newton_norm;
+      const auto cg = steihaug_cg(c.H, c.g, delta, 0, 1e-13, &metric);
+      EXPECT_EQ(cg.reason, QpStop::Converged) << factor;
+      EXPECT_LE((cg.s - newton).norm(), 1e-9 * newton.norm()) << factor;
+      const auto dl = dogleg.step(delta);
+      EXPECT_EQ(dl.reason, QpStop::Converged) << factor;
+      EXPECT_LE((dl.s - newton).norm(), 1e-10 * newton.norm()) << factor;
+      EXPECT_NEAR(dl.model_decrease, -0.5 * c.g.dot(newton), 1e-10 * std::abs(c.g.dot(newton)));
+    }
+    for (double factor : {1e-4, 0.1, 0.5, 0.9, 1.0 - 1e-6}) {
+      const double delta = factor * newton_norm;
+      for (const auto& r : {steihaug_cg(c.H, c.g, delta, 0, 1e-13, &metric), dogleg.step(delta)}) {
+        EXPECT_EQ(r.reason, QpStop::Boundary) << factor;
+        EXPECT_NEAR(metric_norm(M, r.s), delta, 1e-12 * delta) << factor;
+      }
+    }
+  }
+  // An indefinite model has no minimizer: with room to move, CG meets negative curvature and stops on the sphere.
+  for (const auto& c : cases()) {
+    if (c.spd) continue;
+    for (double delta : {1.0, 10.0, 1e3}) {
+      const auto r = steihaug_cg(c.H, c.g, delta, 0, 1e-12, &metric);
+      EXPECT_NE(r.reason, QpStop::Converged) << delta;
+      EXPECT_NEAR(metric_norm(M, r.s), delta, 1e-12 * delta) << delta;
+    }
+    EXPECT_EQ(steihaug_cg(c.H, c.g, 1e3, 0, 1e-12, &metric).reason, QpStop::NegativeCurvature);
+  }
+}
+
+TEST(TrustRegionQpMetric, PreconditionedCgIteratesGrowInTheMetricNorm) {
+  // Conn-Gould-Toint Thm. 7.5.1: with preconditioner M the iterates z_j grow in ‖·‖_M, so a radius between
+  // ‖z_2‖_M and ‖z_3‖_M gives the point of the segment z_2 → z_3 on the M-sphere after three iterations.
+  const NormMetric metric = random_metric(20, 31);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  for (const auto& c : cases()) {
+    if (!c.spd) continue;
+    double previous = 0.0;
+    for (int j = 1; j <= 15; ++j) {
+      const double norm = metric_norm(M, steihaug_cg(c.H, c.g, 1e9, j, 0.0, &metric).s);
+      EXPECT_GT(norm, previous) << j;
+      previous = norm;
+    }
+    const VecX z2 = steihaug_cg(c.H, c.g, 1e9, 2, 0.0, &metric).s, z3 = steihaug_cg(c.H, c.g, 1e9, 3, 0.0, &metric).s;
+    const double delta = 0.5 * (metric_norm(M, z2) + metric_norm(M, z3));
+    const auto r = steihaug_cg(c.H, c.g, delta, 0, 1e-12, &metric);
+    EXPECT_EQ(r.reason, QpStop::Boundary);
+    EXPECT_EQ(r.iterations, 3);
+    EXPECT_NEAR(metric_norm(M, r.s), delta, 1e-12 * delta);
+    const VecX d = (z3 - z2).normalized();
+    const VecX off = (r.s - z2) - (r.s - z2).dot(d) * d;
+    EXPECT_LE(off.norm(), 1e-10 * r.s.norm());
+  }
+}
+
+TEST(TrustRegionQpMetric, OneCgIterationIsTheMetricCauchyPoint) {
+  const NormMetric metric = random_metric(20, 41);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  for (const auto& c : cases())
+    for (double delta : kRadii) {
+      const auto cp = cauchy_point(c.H, c.g, delta, &metric);
+      // Along −M⁻¹g: the minimizer of the model, or the point on the M-sphere.
+      const VecX y = M.ldlt().solve(c.g);
+      EXPECT_LE((cp.s - cp.s.dot(y) / y.squaredNorm() * y).norm(), 1e-12 * cp.s.norm());
+      EXPECT_LT(cp.s.dot(y), 0.0);
+      const double t_min = c.g.dot(y) / y.dot(c.H * y), t_ball = delta / metric_norm(M, y);
+      const double t = (y.dot(c.H * y) > 0.0) ? std::min(t_min, t_ball) : t_ball;
+      EXPECT_LE((cp.s + t * y).norm(), 1e-12 * cp.s.norm()) << delta;
+      const auto cg = steihaug_cg(c.H, c.g, delta, 1, 1e-12, &metric);
+      EXPECT_EQ(cg.iterations, 1);
+      EXPECT_LE((cg.s - cp.s).norm(), 1e-12 * cp.s.norm()) << delta;
+    }
+}
+
+TEST(TrustRegionQpMetric, MetricSolversAreTheEuclideanOnesAfterAChangeOfVariables) {
+  // With M = RᵀR and ŝ = Rs, min m(s) s.t. ‖s‖_M ≤ Δ is min ĝᵀŝ + ½ŝᵀĤŝ s.t. ‖ŝ‖₂ ≤ Δ for Ĥ = R⁻ᵀHR⁻¹, ĝ = R⁻ᵀg.
+  // The M-steepest descent −M⁻¹g maps to −ĝ, M-preconditioned CG to plain CG and the Newton point to itself, so
+  // the Cauchy point, every truncated CG iterate and (for SPD H, where no shift enters) the dogleg point must all
+  // map onto the ℓ2 solvers' results on (Ĥ, ĝ). CG runs with rel_tol = 0, so only iteration limits, the boundary
+  // and negative curvature end it, tests that are invariant under the change of variables (‖r‖₂ is not).
+  const NormMetric metric = random_metric(20, 51);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  const Eigen::LLT<Eigen::MatrixXd> llt(M);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  const Eigen::MatrixXd L = llt.matrixL();  // M = LLᵀ, R = Lᵀ
+  const auto from_hat = [&](const VecX& s_hat) -> VecX { return L.transpose().triangularView<Eigen::Upper>().solve(s_hat); };
+  for (const auto& c : cases()) {
+    const Eigen::MatrixXd LinvH = L.triangularView<Eigen::Lower>().solve(dense(c.H));
+    Eigen::MatrixXd H_hat = L.triangularView<Eigen::Lower>().solve(LinvH.transpose());
+    H_hat = 0.5 * (H_hat + H_hat.transpose()).eval();
+    const BlockMatrix3 Hh = dense_blocks(H_hat);
+    const VecX g_hat = L.triangularView<Eigen::Lower>().solve(c.g);
+    const auto expect_same = [&](const QpResult& with_metric, const QpResult& hat, double tol, const std::string& what) {
+      EXPECT_EQ(with_metric.reason, hat.reason) << what;
+      EXPECT_EQ(with_metric.iterations, hat.iterations) << what;
+      const VecX s = from_hat(hat.s);
+      EXPECT_LE((with_metric.s - s).norm(), tol * s.norm()) << what;
+      EXPECT_NEAR(with_metric.model_decrease, hat.model_decrease, tol * hat.model_decrease) << what;
+      EXPECT_NEAR(with_metric.norm, hat.norm, tol * hat.norm) << what;
+    };
+    Dogleg dogleg, dogleg_hat;
+    dogleg.prepare(c.H, c.g, &metric);
+    dogleg_hat.prepare(Hh, g_hat);
+    if (c.spd) {
+      EXPECT_NEAR(dogleg.newton_norm(), dogleg_hat.newton_norm(), 1e-12 * dogleg_hat.newton_norm());
+    }
+    for (double delta : kRadii) {
+      const std::string at = fmt::format(" spd {} delta {}", c.spd, delta);
+      expect_same(cauchy_point(c.H, c.g, delta, &metric), cauchy_point(Hh, g_hat, delta), 1e-12, "cauchy" + at);
+      for (int iters : {1, 2, 3, 5, 8})
+        expect_same(steihaug_cg(c.H, c.g, delta, iters, 0.0, &metric), steihaug_cg(Hh, g_hat, delta, iters, 0.0),
+                    1e-12, fmt::format("cg {} iterations{}", iters, at));
+      if (c.spd) expect_same(dogleg.step(delta), dogleg_hat.step(delta), 1e-12, "dogleg" + at);
+    }
+  }
+}
+
+TEST(TrustRegionQpMetric, DecreaseIsAtLeastTheMetricCauchyDecrease) {
+  // SDC with κ = 1 against the Cauchy point of the level's norm, on SPD and indefinite models alike.
+  const NormMetric metric = random_metric(20, 61);
+  for (const auto& c : cases()) {
+    Dogleg dogleg;
+    dogleg.prepare(c.H, c.g, &metric);
+    for (double delta : kRadii) {
+      const double cauchy = cauchy_point(c.H, c.g, delta, &metric).model_decrease;
+      const double slack = 1e-12 * std::abs(cauchy);
+      EXPECT_GT(cauchy, 0.0);
+      for (int iters : {0, 2, 5})
+        EXPECT_GE(steihaug_cg(c.H, c.g, delta, iters, 1e-12, &metric).model_decrease, cauchy - slack)
+            << "spd " << c.spd << " delta " << delta << " iterations " << iters;
+      EXPECT_GE(dogleg.step(delta).model_decrease, cauchy - slack) << "spd " << c.spd << " delta " << delta;
+    }
+  }
+}
+
+TEST(TrustRegionQpMetric, MetricDoglegStepsDoNotRefactorAndBeatTheCauchyPointOnTheSphere) {
+  const NormMetric metric = random_metric(20, 71);
+  const Eigen::MatrixXd M = dense(metric.matrix());
+  for (const auto& c : cases()) {
+    Dogleg dogleg;
+    dogleg.prepare(c.H, c.g, &metric);
+    const int after_prepare = dogleg.factorizations();
+    double previous = kInf;
+    for (double delta : {100.0, 10.0, 1.0, 0.3, 0.1, 0.01}) {
+      const auto r = dogleg.step(delta);
+      EXPECT_LE(r.model_decrease, previous + 1e-12);
+      previous = r.model_decrease;
+    }
+    EXPECT_EQ(dogleg.factorizations(), after_prepare);
+    if (!c.spd) continue;
+    // A radius between the M-Cauchy point and the Newton point puts the dogleg on the second leg.
+    const VecX y = M.ldlt().solve(c.g);
+    const double cauchy_norm = c.g.dot(y) / y.dot(c.H * y) * metric_norm(M, y);
+    ASSERT_LT(cauchy_norm, dogleg.newton_norm());
+    const double delta = 0.5 * (cauchy_norm + dogleg.newton_norm());
+    const auto r = dogleg.step(delta);
+    EXPECT_EQ(r.reason, QpStop::Boundary);
+    EXPECT_NEAR(metric_norm(M, r.s), delta, 1e-12 * delta);
+    EXPECT_GT(r.model_decrease, cauchy_point(c.H, c.g, delta, &metric).model_decrease);
+  }
+}
+
+TEST(TrustRegionQpMetric, ZeroGradientGivesAZeroStep) {
+  const auto c = cases().front();
+  const NormMetric metric = random_metric(20, 81);
+  const VecX zero = VecX::Zero(c.g.size());
+  EXPECT_EQ(cauchy_point(c.H, zero, 1.0, &metric).s.norm(), 0.0);
+  EXPECT_EQ(steihaug_cg(c.H, zero, 1.0, 0, 1e-10, &metric).s.norm(), 0.0);
+  Dogleg dogleg;
+  dogleg.prepare(c.H, zero, &metric);
   EXPECT_EQ(dogleg.step(1.0).s.norm(), 0.0);
   EXPECT_EQ(dogleg.step(1.0).model_decrease, 0.0);
 }

@@ -16,7 +16,38 @@ std::string to_string(QpStop reason) {
   return "unknown";
 }
 
+NormMetric::NormMetric(BlockMatrix3 M) : m_matrix(std::move(M)), m_cholmod(std::make_unique<CholmodSolver>()) {
+  // CHOLMOD reads only the lower triangle and would "factorize" NaN (see factorize_shifted); an asymmetric M would
+  // make solve() the inverse of another matrix than multiply() applies, and the norm of the CG iterates would no
+  // longer be the one the preconditioner grows monotonically.
+  double scale = 0.0;
+  for (const Mat3& b : m_matrix.blocks()) {
+    if (!b.allFinite()) throw_error("NormMetric: M has a non-finite entry");
+    scale = std::max(scale, b.cwiseAbs().maxCoeff());
+  }
+  for (Index r = 0; r < m_matrix.rows(); ++r)
+    for (Index k = m_matrix.row_offsets()[r]; k < m_matrix.row_offsets()[r + 1]; ++k) {
+      const Index c = m_matrix.col_indices()[k];
+      const double asym = (m_matrix.block(k) - m_matrix.block(m_matrix.find(c, r)).transpose()).cwiseAbs().maxCoeff();
+      if (asym > 1e-12 * scale) throw_error("NormMetric: M is not symmetric (blocks ({}, {}) and ({}, {}))", r, c, c, r);
+    }
+  if (!m_cholmod->factorize(m_matrix)) throw_error("NormMetric: M ({} points) is not positive definite", rows());
+}
+
+void NormMetric::multiply(const VecX& s, VecX& out) const { m_matrix.multiply(s, out); }
+
+void NormMetric::solve(const VecX& r, VecX& out) const { m_cholmod->solve(r, out); }
+
+double NormMetric::dot(const VecX& a, const VecX& b) const { return a.dot(m_matrix * b); }
+
+double NormMetric::norm(const VecX& s) const { return std::sqrt(std::max(0.0, dot(s, s))); }
+
 namespace {
+
+void check_metric(const NormMetric* metric, Index dofs, const char* where) {
+  if (metric && 3 * metric->rows() != dofs)
+    throw_error("{}: the metric has {} points, the vectors {} entries", where, metric->rows(), dofs);
+}
 
 /// The two roots τ₋ ≤ 0 ≤ τ₊ of ‖z + τd‖ = Δ for ‖z‖ ≤ Δ, in the cancellation-free form.
 std::pair<double, double> boundary_roots(double zz, double zd, double dd, double delta) {
@@ -30,7 +61,9 @@ std::pair<double, double> boundary_roots(double zz, double zd, double dd, double
   return {root - zd > 0.0 ? -room / (root - zd) : 0.0, hi};
 }
 
-/// The Cauchy point −t·g (Nocedal-Wright eq. 4.12) from ‖g‖², gᵀHg and Δ; returns t and the model decrease.
+/// The Cauchy point −t·y (Nocedal-Wright eq. 4.12) from gg = gᵀy, gHg = yᵀHy and Δ, where −y is the steepest
+/// descent of the norm: y = g in ℓ2, y = M⁻¹g in ‖·‖_M. Both uses of gg hold for either, since gᵀy = ‖y‖²_M
+/// (= ‖g‖²_{M⁻¹}) gives the slope and the length alike. Returns t and the model decrease.
 std::pair<double, double> cauchy_step(double gg, double gHg, double delta) {
   const double g_norm = std::sqrt(gg);
   if (g_norm == 0.0) return {0.0, 0.0};
@@ -44,25 +77,37 @@ double model_decrease(const BlockMatrix3& H, const VecX& g, const VecX& s) {
 }
 
 /// Round-off can put a boundary step a few ulps outside the ball; pull it back so that ‖s‖ ≤ Δ holds exactly.
-void clamp_to_ball(VecX& s, double delta) {
-  const double n = s.norm();
-  if (n > delta) s *= delta / n;
+/// Returns ‖s‖ afterwards, in ℓ2 or in ‖·‖_M.
+double clamp_to_ball(VecX& s, double delta, const NormMetric* metric) {
+  const double n = metric ? metric->norm(s) : s.norm();
+  if (n > delta) {
+    s *= delta / n;
+    return delta;
+  }
+  return n;
 }
 
 }  // namespace
 
-QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta) {
+QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "cauchy_point");
   QpResult r;
-  const double gg = g.squaredNorm();
-  const auto [t, dec] = cauchy_step(gg, g.dot(H * g), delta);
-  r.s = -t * g;
-  clamp_to_ball(r.s, delta);
+  // −M⁻¹g minimizes gᵀd over ‖d‖_M = ‖g‖_{M⁻¹} (Cauchy-Schwarz in the M inner product).
+  VecX Minv_g;
+  if (metric) metric->solve(g, Minv_g);
+  const VecX& y = metric ? Minv_g : g;
+  const double gg = metric ? std::max(0.0, g.dot(Minv_g)) : g.squaredNorm();
+  const auto [t, dec] = cauchy_step(gg, y.dot(H * y), delta);
+  r.s = -t * y;
+  r.norm = clamp_to_ball(r.s, delta, metric);
   r.model_decrease = model_decrease(H, g, r.s);
   r.reason = t * std::sqrt(gg) >= delta * (1.0 - 1e-12) ? QpStop::Boundary : QpStop::Converged;
   return r;
 }
 
-QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol) {
+QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
+                     const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "steihaug_cg");
   QpResult out;
   const Index n = static_cast<Index>(g.size());
   if (max_iters <= 0) max_iters = 3 * static_cast<int>(n);
@@ -71,18 +116,46 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
   const double tol = rel_tol * g_norm;
   out.reason = QpStop::MaxIters;
   double rr = r.squaredNorm();
-  double gHg = 0.0;  // dᵀHd of the first iteration, where d = −g
+  double gHg = 0.0;  // dᵀHd of the first iteration, where d = −y₀
   if (g_norm == 0.0) {
     out.s = z;
     out.reason = QpStop::Converged;
     return out;
   }
+  // Preconditioned by M (Conn-Gould-Toint Alg. 7.5.1): y = M⁻¹r takes the place of r in the direction and in α, β
+  // (ry = rᵀy), which makes the iterates' M-norms, not their ℓ2 norms, grow monotonically (CGT Thm. 7.5.1), so the
+  // boundary tests below are in ‖·‖_M. Without a metric y is r itself. The stopping test stays ‖r‖₂ ≤ rel_tol·‖g‖₂:
+  // the caller's tolerance keeps its meaning, and the metric changes only the constraint, not when an interior
+  // step counts as converged.
+  VecX Minv_r, y0, Mz, Md;
+  if (metric) {
+    metric->solve(r, Minv_r);
+    y0 = Minv_r;
+    Mz = VecX::Zero(n);
+    d = -Minv_r;
+  }
+  const VecX& y = metric ? Minv_r : r;
+  double ry = metric ? r.dot(Minv_r) : rr;
+  const double ry0 = ry;
   int j = 0;
   for (; j < max_iters; ++j) {
     H.multiply(d, Hd);
     const double dHd = d.dot(Hd);
     if (j == 0) gHg = dHd;
-    const double zz = z.squaredNorm(), zd = z.dot(d), dd = d.squaredNorm();
+    // ‖z‖², zᵀd and ‖d‖² in the norm of the subproblem. With a metric they come from explicit products (Md, and
+    // Mz carried along with z) rather than from the scalar recurrences for zᵀMd and dᵀMd (CGT §7.5.1), which hold
+    // only as long as the residuals stay orthogonal; one M product per iteration buys immunity to that loss.
+    double zz, zd, dd;
+    if (metric) {
+      metric->multiply(d, Md);
+      zz = z.dot(Mz);
+      zd = z.dot(Md);
+      dd = d.dot(Md);
+    } else {
+      zz = z.squaredNorm();
+      zd = z.dot(d);
+      dd = d.squaredNorm();
+    }
     if (!(dHd > 0.0)) {
       // Negative curvature: the model is unbounded along ±d; take the boundary point with the lower model,
       // m(z + τd) − m(z) = τ rᵀd + ½ τ² dᵀHd.
@@ -94,14 +167,16 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
       ++j;
       break;
     }
-    const double alpha = rr / dHd;
-    if ((z + alpha * d).squaredNorm() >= delta * delta) {
+    const double alpha = ry / dHd;
+    const double next_norm2 = metric ? zz + alpha * (2.0 * zd + alpha * dd) : (z + alpha * d).squaredNorm();
+    if (next_norm2 >= delta * delta) {
       z += boundary_roots(zz, zd, dd, delta).second * d;
       out.reason = QpStop::Boundary;
       ++j;
       break;
     }
     z += alpha * d;
+    if (metric) Mz += alpha * Md;
     r += alpha * Hd;
     const double rr_next = r.squaredNorm();
     if (std::sqrt(rr_next) <= tol) {
@@ -109,22 +184,28 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
       ++j;
       break;
     }
-    d = -r + (rr_next / rr) * d;
-    rr = rr_next;
+    double ry_next = rr_next;
+    if (metric) {
+      metric->solve(r, Minv_r);
+      ry_next = r.dot(Minv_r);
+    }
+    d = -y + (ry_next / ry) * d;
+    ry = ry_next;
   }
   out.iterations = j;
-  clamp_to_ball(z, delta);
+  out.norm = clamp_to_ball(z, delta, metric);
   out.model_decrease = model_decrease(H, g, z);
-  // In exact arithmetic every CG iterate improves on the first (the Cauchy point); with a Hessian of condition
-  // 1e13 round-off can undo that, and SDC must hold regardless.
-  const auto [t, cauchy_decrease] = cauchy_step(g_norm * g_norm, gHg, delta);
+  // In exact arithmetic every CG iterate improves on the first (the Cauchy point of the norm); with a Hessian of
+  // condition 1e13 round-off can undo that, and SDC must hold regardless.
+  const auto [t, cauchy_decrease] = cauchy_step(metric ? ry0 : g_norm * g_norm, gHg, delta);
   if (!(out.model_decrease >= cauchy_decrease)) {
-    VecX c = -t * g;
-    clamp_to_ball(c, delta);
+    VecX c = -t * (metric ? y0 : g);
+    const double c_norm = clamp_to_ball(c, delta, metric);
     const double dec = model_decrease(H, g, c);
     if (!(out.model_decrease >= dec)) {
       z.swap(c);
       out.model_decrease = dec;
+      out.norm = c_norm;
     }
   }
   out.s = std::move(z);
@@ -155,9 +236,14 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
                                f.attempts, first * std::pow(10.0, f.attempts - 2)));
 }
 
-void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
-  m_g = g;
-  m_gg = g.squaredNorm();
+void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "Dogleg::prepare");
+  m_metric = metric;
+  // In ‖·‖_M the first leg runs along −y = −M⁻¹g. Since My = g, every M-inner product step() needs is one of
+  // the model's scalars already: ‖y‖²_M = gᵀy, yᵀMp_B = gᵀp_B; only ‖p_B‖_M costs an M product.
+  if (metric) metric->solve(g, m_y);
+  else m_y = g;
+  m_gg = metric ? std::max(0.0, g.dot(m_y)) : g.squaredNorm();
   m_g_norm = std::sqrt(m_gg);
   m_prepared = true;
   if (m_g_norm == 0.0) {
@@ -166,8 +252,8 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
     return;
   }
   VecX Hv;
-  H.multiply(g, Hv);
-  m_gHg = g.dot(Hv);
+  H.multiply(m_y, Hv);
+  m_gHg = m_y.dot(Hv);
   const auto f = factorize_shifted(m_cholmod, H, 40, m_shift);
   m_factorizations += f.attempts;
   m_shift = f.shift;
@@ -177,9 +263,9 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g) {
   if (!m_newton.allFinite()) m_newton.setZero();
   m_gp = g.dot(m_newton);
   H.multiply(m_newton, Hv);
-  m_gHp = g.dot(Hv);
+  m_gHp = m_y.dot(Hv);
   m_pHp = m_newton.dot(Hv);
-  m_newton_norm = m_newton.norm();
+  m_newton_norm = metric ? metric->norm(m_newton) : m_newton.norm();
 }
 
 double Dogleg::decrease(double a, double b) const {
@@ -192,20 +278,21 @@ QpResult Dogleg::step(double delta) const {
   if (!m_prepared) throw_error("Dogleg::step called before prepare");
   QpResult out;
   if (m_g_norm == 0.0) {
-    out.s = VecX::Zero(m_g.size());
+    out.s = VecX::Zero(m_y.size());
     return out;
   }
-  // Steps are s = a·g + b·p_B; the model of such a step needs only the scalars of prepare().
+  // Steps are s = a·y + b·p_B; the model of such a step, and its M-norm geometry, need only the scalars of
+  // prepare(), in which the formulas of ℓ2 hold unchanged (‖y‖² → gᵀy, yᵀp_B → gᵀp_B, ‖p_B‖ → ‖p_B‖_M).
   double a = 0.0, b = 0.0;
   if (m_newton_norm > 0.0 && m_newton_norm <= delta) {
     b = 1.0;
     out.reason = QpStop::Converged;
   } else if (m_newton_norm > 0.0 && !(m_gHg > 0.0)) {
-    // No Cauchy minimizer along −g (the segment 0 → p_U is unbounded): the Newton point of H + λI, cut at Δ.
+    // No Cauchy minimizer along −y (the segment 0 → p_U is unbounded): the Newton point of H + λI, cut at Δ.
     b = delta / m_newton_norm;
     out.reason = QpStop::Boundary;
   } else if (m_newton_norm > 0.0) {
-    const double u = m_gg / m_gHg;  // p_U = −u·g
+    const double u = m_gg / m_gHg;  // p_U = −u·y
     if (u * m_g_norm >= delta) {
       a = -delta / m_g_norm;
     } else {
@@ -227,13 +314,15 @@ QpResult Dogleg::step(double delta) const {
     b = 0.0;
     out.reason = t * m_g_norm >= delta * (1.0 - 1e-12) ? QpStop::Boundary : QpStop::Converged;
   }
-  out.s = a * m_g + b * m_newton;
-  const double norm = out.s.norm();
+  out.s = a * m_y + b * m_newton;
+  // Measured, not taken from the scalars: one M product, and the reported norm is the step's own.
+  const double norm = m_metric ? m_metric->norm(out.s) : out.s.norm();
   if (norm > delta) {
     a *= delta / norm;
     b *= delta / norm;
     out.s *= delta / norm;
   }
+  out.norm = std::min(norm, delta);
   out.model_decrease = decrease(a, b);
   return out;
 }

@@ -2,14 +2,51 @@
 #include <mgcloth/linalg/block_matrix.hpp>
 #include <mgcloth/linalg/cholmod_solver.hpp>
 
+#include <memory>
 #include <string>
 
 namespace mgcloth::linalg {
 
 /// Approximate solvers of the trust-region subproblem (Kopaničáková 2019, eq. 4.1)
-///   min m(s) = gᵀs + ½ sᵀHs  subject to  ‖s‖₂ ≤ Δ,
-/// for a symmetric, possibly indefinite H. Every solver returns a step with at least the Cauchy point's model
-/// decrease, so the sufficient decrease condition (SDC) holds with κ = 1 relative to the Cauchy point.
+///   min m(s) = gᵀs + ½ sᵀHs  subject to  ‖s‖ ≤ Δ,
+/// for a symmetric, possibly indefinite H, in ‖·‖₂ or, given a NormMetric, in ‖·‖_M. Every solver returns a step
+/// with at least the Cauchy point's model decrease (the Cauchy point of the same norm), so the sufficient decrease
+/// condition (SDC) holds with κ = 1 relative to the Cauchy point.
+
+/// The trust-region norm ‖s‖_M = √(sᵀ(M ⊗ I₃)s) for a symmetric positive definite M over the points: the
+/// level-dependent norm of RMTR (Kopaničáková 2019, eqs. 4.8-4.9), ‖s‖_l = ‖I s‖₂ with I the prolongation
+/// composed to the finest level, is that of M = IᵀI. In this norm the steepest-descent direction is −M⁻¹g: the
+/// Cauchy point and the dogleg's first leg follow it, and the CG is preconditioned by M (Conn-Gould-Toint, Trust
+/// Region Methods, §7.5.1). Nothing below depends on the blocks being scalar; an SPD BlockMatrix3 with full 3×3
+/// blocks works too. Not copyable (it owns a factorization) but movable; solvers hold it by pointer. solve() uses
+/// CHOLMOD's workspace, so one NormMetric must not serve two solves at the same time.
+class NormMetric {
+ public:
+  /// M as a BlockMatrix3 whose blocks are scalar multiples of I₃ (m_ij I₃). Factorizes it once (CholmodSolver);
+  /// throws mgcloth::Error when M is not positive definite, not symmetric (to 1e-12·max|m_ij|) or has a non-finite
+  /// entry.
+  explicit NormMetric(BlockMatrix3 M);
+  NormMetric(const NormMetric&) = delete;
+  NormMetric& operator=(const NormMetric&) = delete;
+  NormMetric(NormMetric&&) noexcept = default;
+  NormMetric& operator=(NormMetric&&) noexcept = default;
+
+  /// Number of points (block rows); vectors have 3·rows() entries.
+  Index rows() const { return m_matrix.rows(); }
+  const BlockMatrix3& matrix() const { return m_matrix; }
+  /// out = M s.
+  void multiply(const VecX& s, VecX& out) const;
+  /// out = M⁻¹ r (two triangular solves; no factorization).
+  void solve(const VecX& r, VecX& out) const;
+  /// ‖s‖_M = √(sᵀMs).
+  double norm(const VecX& s) const;
+  /// aᵀ M b.
+  double dot(const VecX& a, const VecX& b) const;
+
+ private:
+  BlockMatrix3 m_matrix;
+  std::unique_ptr<CholmodSolver> m_cholmod;
+};
 
 /// Why a subproblem solve ended.
 enum class QpStop {
@@ -25,17 +62,23 @@ struct QpResult {
   double model_decrease = 0.0;  ///< −(gᵀs + ½ sᵀHs) with the true H; > 0 unless g = 0
   int iterations = 0;           ///< CG iterations (0 for the dogleg)
   QpStop reason = QpStop::Converged;
+  double norm = 0.0;            ///< ‖s‖ in the subproblem's norm: ‖s‖_M with a metric, ‖s‖₂ without
 };
 
-/// The Cauchy point: the model's minimizer along −g inside the ball (Nocedal-Wright eq. 4.11-4.12); along −g to
-/// the boundary when gᵀHg ≤ 0.
-QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta);
+/// The Cauchy point: the model's minimizer along the steepest-descent direction d inside the ball (Nocedal-Wright
+/// eq. 4.11-4.12); along d to the boundary when dᵀHd ≤ 0. d = −g in ‖·‖₂; d = −M⁻¹g, the steepest descent of
+/// ‖·‖_M, with a metric (one M solve).
+QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const NormMetric* metric = nullptr);
 
 /// Steihaug-Toint truncated CG (Nocedal-Wright Alg. 7.2) from s = 0: stops at ‖r‖ ≤ rel_tol·‖g‖, at the boundary,
 /// at negative curvature (then goes to the boundary point along d with the lower model) or after max_iters
-/// iterations (≤ 0: 3·dofs). Its first iterate is the Cauchy point, and a final step that lost model decrease to
-/// round-off against it is replaced by the Cauchy point, so SDC holds in floating point too.
-QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol);
+/// iterations (≤ 0: 3·dofs). Its first iterate is the Cauchy point (of the metric's norm, with one), and a final
+/// step that lost model decrease to round-off against it is replaced by the Cauchy point, so SDC holds in floating
+/// point too. With a metric the constraint is ‖s‖_M ≤ Δ and the CG is preconditioned by M (Conn-Gould-Toint Alg. 7.5.1): the
+/// iterates' M-norms grow monotonically, so the first crossing of ‖s‖_M = Δ ends it as in ℓ2; each iteration adds
+/// one M solve and one M product. The stopping test stays ‖r‖₂ ≤ rel_tol·‖g‖₂ in both cases.
+QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
+                     const NormMetric* metric = nullptr);
 
 /// What a shifted Cholesky factorization needed.
 struct ShiftedFactorization {
@@ -54,9 +97,13 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
 /// rejected trust-region step (smaller Δ at the same x) costs no factorization. An H that is not positive definite
 /// gives the Newton point of H + λI (factorize_shifted); the step's model decrease is always that of the true H.
 /// The symbolic analysis of CHOLMOD is reused for every H with the same pattern.
+/// With a metric the constraint is ‖s‖_M ≤ Δ: the Newton point is unchanged, the first leg runs to the Cauchy point
+/// along −M⁻¹g, and the path meets ‖·‖_M = Δ where the M-inner products of prepare() say. The metric is used again
+/// by step() (to measure the step), so it must outlive the prepare()d state, i.e. every step() until the next
+/// prepare().
 class Dogleg {
  public:
-  void prepare(const BlockMatrix3& H, const VecX& g);
+  void prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric = nullptr);
   QpResult step(double delta) const;
 
   /// Numeric factorizations done by every prepare() so far (step() does none).
@@ -67,15 +114,19 @@ class Dogleg {
   double shift() const { return m_shift; }
   /// Symbolic analyses of the CHOLMOD solver (one per Hessian pattern).
   int analyses() const { return m_cholmod.analyses(); }
-  /// ‖p_B‖ of the last prepare(): the radius beyond which step() returns the Newton point.
+  /// ‖p_B‖ (‖p_B‖_M with a metric) of the last prepare(): the radius beyond which step() returns the Newton point.
   double newton_norm() const { return m_newton_norm; }
 
  private:
-  /// Model decrease −(gᵀs + ½ sᵀHs) of s = a·g + b·p_B, from the scalar products computed in prepare().
+  /// Model decrease −(gᵀs + ½ sᵀHs) of s = a·y + b·p_B, from the scalar products computed in prepare().
   double decrease(double a, double b) const;
 
   CholmodSolver m_cholmod;
-  VecX m_g, m_newton;  ///< g and the Newton point p_B = −(H + λI)⁻¹g
+  const NormMetric* m_metric = nullptr;
+  /// y = M⁻¹g (g itself in ℓ2), so that −y is the steepest descent of the norm, and the Newton point
+  /// p_B = −(H + λI)⁻¹g. The scalars are in terms of y: m_gg = gᵀy = ‖y‖²_M, m_gHg = yᵀHy, m_gp = gᵀp_B
+  /// = yᵀMp_B, m_gHp = yᵀHp_B, m_pHp = p_BᵀHp_B, m_g_norm = ‖y‖_M, m_newton_norm = ‖p_B‖_M.
+  VecX m_y, m_newton;
   double m_gg = 0.0, m_gHg = 0.0, m_gp = 0.0, m_gHp = 0.0, m_pHp = 0.0;
   double m_g_norm = 0.0, m_newton_norm = 0.0;
   double m_shift = 0.0;

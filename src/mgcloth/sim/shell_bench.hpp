@@ -2,6 +2,8 @@
 #include <mgcloth/sim/convergence.hpp>
 #include <mgcloth/sim/scene.hpp>
 
+#include <functional>
+
 namespace mgcloth::sim {
 
 /// The single-level solver study of Kopaničáková 2019 (Table 3, Fig. 10): each shell scene at each level, the
@@ -28,10 +30,15 @@ struct ShellBenchRow {
   std::vector<std::pair<std::string, double>> counters;
 };
 
+/// Called after every finished row with all rows so far, so that a long study can write its results as it goes.
+using ShellBenchProgress = std::function<void(const std::vector<ShellBenchRow>&)>;
+
 /// Runs every (scene, level, solver); a solve that diverges (SolveError) is recorded with status "diverged".
-std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& options);
+std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& options,
+                                           const ShellBenchProgress& on_row = {});
 /// scene,shell,level,dofs,time_step,solver,iterations,converged,status,energy,grad_norm,rel_grad,wall_s,
-/// accepted,rejected,hessian_assemblies,qp_calls,cg_iterations
+/// accepted,rejected,hessian_assemblies,qp_calls,cg_iterations,work_assembly,work_qp (multilevel solvers: the per-level
+/// columns count the finest level; work_* are the work units of Kopaničáková 2019, eq. 7.3, over all levels)
 std::string shell_bench_csv(const std::vector<ShellBenchRow>& rows);
 Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOptions& options);
 

@@ -1,8 +1,10 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
 #include <mgcloth/sim/scene.hpp>
 #include <mgcloth/sim/shell_body.hpp>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::sim {
@@ -21,50 +23,139 @@ mesh::QuadMesh coarse_mesh(const ShellMeshSpec& m) {
 }  // namespace
 
 ShellBody::ShellBody(const ShellSpec& spec, const Vec3& gravity, const std::string& source)
-    : m_spec(spec), m_source(source) {
+    : m_spec(spec), m_source(source), m_gravity(gravity) {
   mesh::QuadMesh coarse = coarse_mesh(spec.mesh);
   const Transform placement{spec.translation, spec.rotation_deg};
   const Mat3 R = placement.rotation().toRotationMatrix();
   for (Index i = 0; i < coarse.num_vertices(); ++i) coarse.x.col(i) = R * coarse.x.col(i) + spec.translation;
   m_hierarchy = hierarchy::SubdivisionHierarchy(coarse, spec.level);
-  m_surface = std::make_unique<mesh::LimitSurface>(m_hierarchy.finest());
+  const int L = m_hierarchy.num_levels();
+  m_levels.resize(static_cast<size_t>(L));
+  m_reverse.resize(static_cast<size_t>(L));
+  m_reverse_tried.assign(static_cast<size_t>(L), 0);
+  m_lsq.resize(static_cast<size_t>(L));
+  m_levels.back() = build_level(L - 1);
   const mesh::QuadMesh& fine = m_hierarchy.finest();
-
-  double length = 0.0;
-  Index edges = 0;
-  for (Index f : m_surface->real_faces())
-    for (int k = 0; k < 4; ++k, ++edges) length += (fine.u.col(fine.quads[f][k]) - fine.u.col(fine.quads[f][(k + 1) % 4])).norm();
-  m_h = length / static_cast<double>(edges);
-  m_beta = spec.beta > 0.0 ? spec.beta : std::pow(m_h, -spec.sigma);  // §7.1: β = h^-σ
-
-  m_objective = std::make_unique<physics::Objective>(fine.num_vertices());
-  m_shell = &m_objective->add(std::make_unique<physics::ShellTerm>(*m_surface, spec.material, gravity, spec.quadrature));
-  m_samples = &m_objective->add(std::make_unique<physics::ShellSampleTerm>(fine.num_vertices()));
-  build_boundary();
-  build_loads();
-  m_objective->finalize();
 
   m_x = as_stacked(fine.x);
   m_v = VecX::Zero(m_x.size());
-  m_display = m_surface->tessellate(spec.display_samples);
+  m_display = surface().tessellate(spec.display_samples);
   for (const Vec2& p : spec.probes) {
-    m_probe_stencils.push_back(locate(p, "probes"));
+    m_probe_stencils.push_back(locate(finest(), p, "probes"));
     m_probe_rest.push_back(m_probe_stencils.back().apply(fine.x, 0));
   }
 }
 
-mesh::LimitStencil ShellBody::locate(const Vec2& u, const std::string& what) const {
+ShellBody::~ShellBody() = default;
+
+std::unique_ptr<ShellBody::Level> ShellBody::build_level(int index) const {
+  auto lv = std::make_unique<Level>();
+  lv->index = index;
+  const mesh::QuadMesh& m = m_hierarchy.mesh(index);
+  lv->surface = std::make_unique<mesh::LimitSurface>(m);
+  double length = 0.0;
+  Index edges = 0;
+  for (Index f : lv->surface->real_faces())
+    for (int k = 0; k < 4; ++k, ++edges) length += (m.u.col(m.quads[f][k]) - m.u.col(m.quads[f][(k + 1) % 4])).norm();
+  lv->h = length / static_cast<double>(edges);
+  // §7.1: β = h^-σ with h the finest mesh size. β is part of the problem (3.6), not of its discretization: the
+  // coarse levels rediscretize the same penalty. (With each level's own h, β drops 2^σ = 32-fold per level, the
+  // coarse models let the boundary move, and RMTR rejected every coarse correction of the Trampoline: ρ < 0.)
+  const double h_finest = index == m_hierarchy.num_levels() - 1 ? lv->h : finest().h;
+  lv->beta = m_spec.beta > 0.0 ? m_spec.beta : std::pow(h_finest, -m_spec.sigma);
+  lv->objective = std::make_unique<physics::Objective>(m.num_vertices());
+  lv->shell = &lv->objective->add(std::make_unique<physics::ShellTerm>(*lv->surface, m_spec.material, m_gravity, m_spec.quadrature));
+  lv->samples = &lv->objective->add(std::make_unique<physics::ShellSampleTerm>(m.num_vertices()));
+  build_boundary(*lv);
+  build_loads(*lv);
+  lv->objective->finalize();
+  return lv;
+}
+
+physics::Objective& ShellBody::level_objective(int level) {
+  if (level < 0 || level >= num_levels())
+    throw_error("shell \"{}\": level {} out of range (the hierarchy has {})", name(), level, num_levels());
+  // Built from the finest down, so that prepare_step() can project its state level by level.
+  VecX x = m_x, y = m_y;
+  for (int l = num_levels() - 2; l >= level; --l) {
+    auto& lv = m_levels[static_cast<size_t>(l)];
+    if (lv && !m_prepared) continue;
+    if (m_prepared) {
+      VecX xc, yc;
+      project(l, x, xc);
+      project(l, y, yc);
+      x.swap(xc);
+      y.swap(yc);
+    }
+    if (lv) continue;
+    lv = build_level(l);
+    // Join the current step: this level's state and inertial prediction from the finest one's.
+    if (m_prepared) prepare_level(*lv, m_t_next, m_step_h, m_load_factor, x, y);
+  }
+  return *m_levels[static_cast<size_t>(level)]->objective;
+}
+
+const hierarchy::ProjectionTable* ShellBody::reverse_subdivision(int level) {
+  if (level < 0 || level + 1 >= num_levels())
+    throw_error("shell \"{}\": no projection from level {} (the hierarchy has {})", name(), level + 1, num_levels());
+  const size_t l = static_cast<size_t>(level);
+  if (!m_reverse_tried[l]) {
+    m_reverse_tried[l] = 1;
+    try {
+      m_reverse[l] = std::make_unique<hierarchy::ProjectionTable>(
+          hierarchy::reverse_subdivision(m_hierarchy.mesh(level), m_hierarchy.step(level)));
+    } catch (const Error& e) {
+      logger().info("shell \"{}\": level {}: no reverse subdivision ({}); iterates are projected by least squares",
+                    name(), level, e.what());
+    }
+  }
+  return m_reverse[l].get();
+}
+
+const hierarchy::LeastSquaresProjection& ShellBody::least_squares(int level) {
+  if (level < 0 || level + 1 >= num_levels())
+    throw_error("shell \"{}\": no projection from level {} (the hierarchy has {})", name(), level + 1, num_levels());
+  auto& p = m_lsq[static_cast<size_t>(level)];
+  if (!p) p = std::make_unique<hierarchy::LeastSquaresProjection>(m_hierarchy.subdivision(level));
+  return *p;
+}
+
+void ShellBody::project(int level, const VecX& fine, VecX& coarse) {
+  if (const auto* q = reverse_subdivision(level)) {
+    q->apply(fine, coarse);
+  } else {
+    least_squares(level).apply(fine, coarse);
+  }
+}
+
+std::vector<std::pair<Index, double>> ShellBody::control_point_on_level(Index v, int level) const {
+  std::vector<std::pair<Index, double>> row{{v, 1.0}};
+  for (int l = num_levels() - 2; l >= level; --l) {
+    const hierarchy::TransferTable& S = m_hierarchy.subdivision(l);
+    std::vector<std::pair<Index, double>> next;
+    for (const auto& [i, w] : row)
+      for (Index k = S.offsets[i]; k < S.offsets[i + 1]; ++k) {
+        auto it = std::find_if(next.begin(), next.end(), [&](const auto& e) { return e.first == S.indices[k]; });
+        if (it == next.end()) next.push_back({S.indices[k], w * S.weights[k]});
+        else it->second += w * S.weights[k];
+      }
+    row.swap(next);
+  }
+  return row;
+}
+
+mesh::LimitStencil ShellBody::locate(const Level& lv, const Vec2& u, const std::string& what) const {
   Index face;
   double s, t;
-  if (!m_surface->locate(u, face, s, t))
+  if (!lv.surface->locate(u, face, s, t))
     throw InputError(fmt::format("{}: shell \"{}\": {}: material point ({}, {}) is not on the shell", m_source, name(),
                                  what, u.x(), u.y()));
   mesh::LimitStencil st;
-  m_surface->stencil(face, s, t, st);
+  lv.surface->stencil(face, s, t, st);
   return st;
 }
 
-std::vector<ShellBody::EdgeSample> ShellBody::edge_samples(Index face, int k) const {
+std::vector<ShellBody::EdgeSample> ShellBody::edge_samples(const Level& lv, Index face, int k) const {
   std::vector<double> z, w;
   physics::line_gauss_rule(m_spec.quadrature, z, w);
   const Vec2 a = kCorner[k], d = kCorner[(k + 1) % 4] - kCorner[k];
@@ -72,8 +163,8 @@ std::vector<ShellBody::EdgeSample> ShellBody::edge_samples(Index face, int k) co
   for (size_t i = 0; i < z.size(); ++i) {
     EdgeSample e;
     const Vec2 p = a + z[i] * d;
-    m_surface->stencil(face, p.x(), p.y(), e.stencil);
-    const Mat3X& rest = m_hierarchy.finest().x;
+    lv.surface->stencil(face, p.x(), p.y(), e.stencil);
+    const Mat3X& rest = lv.mesh(*this).x;
     const Vec3 tangent = d.x() * e.stencil.apply(rest, 1) + d.y() * e.stencil.apply(rest, 2);
     e.ds = w[i] * tangent.norm();
     e.cross = k % 2 == 0 ? 2 : 1;  // edges 0, 2 run along s: across is ∂t
@@ -82,9 +173,10 @@ std::vector<ShellBody::EdgeSample> ShellBody::edge_samples(Index face, int k) co
   return out;
 }
 
-std::vector<std::pair<Index, int>> ShellBody::select_segments(const ShellSelection& sel, const std::string& what) const {
-  const auto all = mesh::real_boundary_edges(m_hierarchy.finest());
-  const Mat2X& u = m_hierarchy.finest().u;
+std::vector<std::pair<Index, int>> ShellBody::select_segments(const Level& lv, const ShellSelection& sel,
+                                                              const std::string& what) const {
+  const auto all = mesh::real_boundary_edges(lv.mesh(*this));
+  const Mat2X& u = lv.mesh(*this).u;
   struct Segment {
     Vec2 a, b, mid;
   };
@@ -93,12 +185,12 @@ std::vector<std::pair<Index, int>> ShellBody::select_segments(const ShellSelecti
   mesh::LimitStencil st;
   for (const auto& [f, k] : all) {
     Segment s;
-    m_surface->stencil(f, kCorner[k].x(), kCorner[k].y(), st);
+    lv.surface->stencil(f, kCorner[k].x(), kCorner[k].y(), st);
     s.a = st.apply(u, 0);
-    m_surface->stencil(f, kCorner[(k + 1) % 4].x(), kCorner[(k + 1) % 4].y(), st);
+    lv.surface->stencil(f, kCorner[(k + 1) % 4].x(), kCorner[(k + 1) % 4].y(), st);
     s.b = st.apply(u, 0);
     const Vec2 m = 0.5 * (kCorner[k] + kCorner[(k + 1) % 4]);
-    m_surface->stencil(f, m.x(), m.y(), st);
+    lv.surface->stencil(f, m.x(), m.y(), st);
     s.mid = st.apply(u, 0);
     lo = lo.cwiseMin(s.a).cwiseMin(s.b);
     hi = hi.cwiseMax(s.a).cwiseMax(s.b);
@@ -138,8 +230,9 @@ std::vector<std::pair<Index, int>> ShellBody::select_segments(const ShellSelecti
   return out;
 }
 
-void ShellBody::build_boundary() {
-  const Mat3X& rest = m_hierarchy.finest().x;
+void ShellBody::build_boundary(Level& lv) const {
+  const Mat3X& rest = lv.mesh(*this).x;
+  const double beta = lv.beta;
   const auto stencil_sample = [](const mesh::LimitStencil& st, int column, double c, const Vec3& b) {
     physics::ShellSample s;
     for (Index k = 0; k < st.size(); ++k) {
@@ -154,38 +247,42 @@ void ShellBody::build_boundary() {
   for (size_t i = 0; i < m_spec.boundary.size(); ++i) {
     const ShellBoundarySpec& bc = m_spec.boundary[i];
     const std::string what = fmt::format("boundary[{}]", i);
-    for (const auto& [f, k] : select_segments(bc.where, what))
-      for (const EdgeSample& e : edge_samples(f, k)) {
+    for (const auto& [f, k] : select_segments(lv, bc.where, what))
+      for (const EdgeSample& e : edge_samples(lv, f, k)) {
         const Vec3 b = e.stencil.apply(rest, 0);
-        const Index s = m_samples->add(stencil_sample(e.stencil, 0, m_beta * e.ds, b));
-        m_targets.push_back({s, b, bc.displacement, bc.ramp_time});
+        const Index s = lv.samples->add(stencil_sample(e.stencil, 0, beta * e.ds, b));
+        lv.targets.push_back({s, b, bc.displacement, bc.ramp_time});
         // Clamped: the derivative across the boundary held too, so the tangent plane stays (eq. 3.6 on x,n).
-        if (bc.type == "clamped") m_samples->add(stencil_sample(e.stencil, e.cross, m_beta * e.ds, e.stencil.apply(rest, e.cross)));
+        if (bc.type == "clamped") lv.samples->add(stencil_sample(e.stencil, e.cross, beta * e.ds, e.stencil.apply(rest, e.cross)));
       }
     for (const Vec2& p : bc.where.points) {
-      const mesh::LimitStencil st = locate(p, what);
+      const mesh::LimitStencil st = locate(lv, p, what);
       const Vec3 b = st.apply(rest, 0);
-      const Index s = m_samples->add(stencil_sample(st, 0, m_beta, b));
-      m_targets.push_back({s, b, bc.displacement, bc.ramp_time});
+      const Index s = lv.samples->add(stencil_sample(st, 0, beta, b));
+      lv.targets.push_back({s, b, bc.displacement, bc.ramp_time});
       if (bc.type == "clamped")
-        for (int d : {1, 2}) m_samples->add(stencil_sample(st, d, m_beta, st.apply(rest, d)));
+        for (int d : {1, 2}) lv.samples->add(stencil_sample(st, d, beta, st.apply(rest, d)));
     }
+    const Mat3X& finest_rest = m_hierarchy.finest().x;
     for (Index v : bc.where.control_points) {
-      if (v < 0 || v >= rest.cols())
+      if (v < 0 || v >= finest_rest.cols())
         throw InputError(fmt::format("{}: shell \"{}\": {}: control point {} out of range (level {} has {})", m_source,
-                                     name(), what, v, m_spec.level, rest.cols()));
+                                     name(), what, v, m_spec.level, finest_rest.cols()));
+      // On a coarse level the finest control point is the combination of coarse ones that subdivision makes it.
       physics::ShellSample s;
-      s.points = {v};
-      s.w = {1.0};
-      s.c = m_beta;
-      s.b = rest.col(v);
-      m_targets.push_back({m_samples->add(s), rest.col(v), bc.displacement, bc.ramp_time});
+      for (const auto& [i, w] : control_point_on_level(v, lv.index)) {
+        s.points.push_back(i);
+        s.w.push_back(w);
+      }
+      s.c = beta;
+      s.b = finest_rest.col(v);
+      lv.targets.push_back({lv.samples->add(s), finest_rest.col(v), bc.displacement, bc.ramp_time});
     }
   }
 }
 
-void ShellBody::build_loads() {
-  const Mat3X& rest = m_hierarchy.finest().x;
+void ShellBody::build_loads(Level& lv) const {
+  const Mat3X& rest = lv.mesh(*this).x;
   const auto load_sample = [&](const mesh::LimitStencil& st, const Vec3& f, double ramp_time) {
     physics::ShellSample s;
     for (Index k = 0; k < st.size(); ++k) {
@@ -193,25 +290,25 @@ void ShellBody::build_loads() {
       s.points.push_back(st.points[k]);
       s.w.push_back(st.w(k, 0));
     }
-    m_loads.push_back({m_samples->add(s), Vec3::Zero(), f, ramp_time});
+    lv.loads.push_back({lv.samples->add(s), Vec3::Zero(), f, ramp_time});
   };
   for (size_t i = 0; i < m_spec.loads.size(); ++i) {
     const ShellLoadSpec& l = m_spec.loads[i];
     const std::string what = fmt::format("loads[{}]", i);
     if (l.type == "point") {
-      for (const Vec2& p : l.where.points) load_sample(locate(p, what), l.force, l.ramp_time);
+      for (const Vec2& p : l.where.points) load_sample(locate(lv, p, what), l.force, l.ramp_time);
     } else if (l.type == "edge") {
-      for (const auto& [f, k] : select_segments(l.where, what))
-        for (const EdgeSample& e : edge_samples(f, k)) load_sample(e.stencil, e.ds * l.force, l.ramp_time);
+      for (const auto& [f, k] : select_segments(lv, l.where, what))
+        for (const EdgeSample& e : edge_samples(lv, f, k)) load_sample(e.stencil, e.ds * l.force, l.ramp_time);
     } else {
       // Pressure as a dead load along the reference normal: f = p n̄ dĀ at each Gauss point.
       std::vector<Vec2> pts;
       std::vector<double> wts;
       physics::square_gauss_rule(m_spec.quadrature, pts, wts);
       mesh::LimitStencil st;
-      for (Index f : m_surface->real_faces())
+      for (Index f : lv.surface->real_faces())
         for (size_t g = 0; g < pts.size(); ++g) {
-          m_surface->stencil(f, pts[g].x(), pts[g].y(), st);
+          lv.surface->stencil(f, pts[g].x(), pts[g].y(), st);
           const Vec3 m = st.apply(rest, 1).cross(st.apply(rest, 2));
           load_sample(st, wts[g] * l.pressure * m, l.ramp_time);
         }
@@ -224,18 +321,37 @@ double ShellBody::factor(double t, double ramp_time, bool is_static, double load
   return ramp_time > 0.0 ? std::min(1.0, t / ramp_time) : 1.0;
 }
 
-VecX ShellBody::prepare_step(double t_next, double h, double load_factor) {
+void ShellBody::prepare_level(Level& lv, double t_next, double h, double load_factor, const VecX& x, const VecX& y) {
   const bool stat = is_static();
-  for (const Driven& d : m_targets) m_samples->set_target(d.sample, d.rest + factor(t_next, d.ramp_time, stat, load_factor) * d.vector);
-  for (const Driven& d : m_loads) m_samples->set_load(d.sample, factor(t_next, d.ramp_time, stat, load_factor) * d.vector);
+  for (const Driven& d : lv.targets) lv.samples->set_target(d.sample, d.rest + factor(t_next, d.ramp_time, stat, load_factor) * d.vector);
+  for (const Driven& d : lv.loads) lv.samples->set_load(d.sample, factor(t_next, d.ramp_time, stat, load_factor) * d.vector);
   if (stat) {
-    m_shell->set_inertia(0.0, m_x);
-    m_shell->set_gravity_scale(load_factor);
-    return m_x;
+    lv.shell->set_inertia(0.0, x);
+    lv.shell->set_gravity_scale(load_factor);
+  } else {
+    lv.shell->set_inertia(h, y);
+    lv.shell->set_gravity_scale(1.0);
   }
-  const VecX y = m_x + h * m_v;
-  m_shell->set_inertia(h, y);
-  m_shell->set_gravity_scale(1.0);
+}
+
+VecX ShellBody::prepare_step(double t_next, double h, double load_factor) {
+  m_t_next = t_next;
+  m_step_h = h;
+  m_load_factor = load_factor;
+  m_prepared = true;
+  m_y = is_static() ? m_x : VecX(m_x + h * m_v);
+  VecX x = m_x, y = m_y;
+  for (int l = num_levels() - 1; l >= 0; --l) {
+    if (l < num_levels() - 1) {
+      if (!m_levels[static_cast<size_t>(l)]) break;  // coarse levels are built from the finest down
+      VecX xc, yc;
+      project(l, x, xc);
+      project(l, y, yc);
+      x.swap(xc);
+      y.swap(yc);
+    }
+    if (m_levels[static_cast<size_t>(l)]) prepare_level(*m_levels[static_cast<size_t>(l)], t_next, h, load_factor, x, y);
+  }
   // The solve starts from the last state, not from the prediction y: at dt = 1 s, y = x + h v overshoots by the
   // whole step's motion and can land in a crumpled or nearly degenerate state, from which the trust region
   // crawls (the Drape at level 1 took > 10^4 iterations from y and converges from x).

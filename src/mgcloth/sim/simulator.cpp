@@ -3,6 +3,8 @@
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <memory>
+
 namespace mgcloth::sim {
 
 Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
@@ -43,6 +45,19 @@ solvers::Problem Simulator::prepare_shell_problem(size_t s, VecX& x0, double* lo
   if (load_factor) *load_factor = body.is_static() ? lambda : 1.0;
   solvers::Problem problem;
   problem.objective = &body.objective();
+  if (m_shell_solvers[s]->needs_level_objectives() || m_shell_solvers[s]->needs_hierarchy()) {
+    // Problem levels are finest first: problem level k is hierarchy level L - 1 - k.
+    const int L = body.num_levels();
+    for (int k = 1; k < L; ++k) {
+      const int level = L - 1 - k;
+      problem.prolongations.push_back(&body.hierarchy().subdivision(level));
+      if (!m_shell_solvers[s]->needs_level_objectives()) continue;
+      problem.level_objectives.push_back(&body.level_objective(level));
+      problem.projections.push_back([&body, level](const VecX& fine, VecX& coarse) { body.project(level, fine, coarse); });
+      problem.lsq_projections.push_back(
+          [&body, level](const VecX& fine, VecX& coarse) { body.least_squares(level).apply(fine, coarse); });
+    }
+  }
   return problem;
 }
 
@@ -56,6 +71,20 @@ solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
   if (m_solvers[c]->needs_level_objectives()) {
     problem.level_objectives = body.level_objectives(m_scene.hierarchy);
     problem.injection = injections(body.hierarchy(m_scene.hierarchy));
+    // The vertex sets are nested, so injection is an exact projection of iterates (RMTR on triangle meshes).
+    for (size_t l = 0; l < problem.injection.size(); ++l) {
+      const std::vector<Index>* inj = problem.injection[l];
+      problem.projections.push_back([inj](const VecX& fine, VecX& coarse) {
+        coarse.resize(3 * static_cast<Index>(inj->size()));
+        for (size_t i = 0; i < inj->size(); ++i) coarse.segment<3>(3 * static_cast<Index>(i)) = fine.segment<3>(3 * (*inj)[i]);
+      });
+      const hierarchy::TransferTable* P = problem.prolongations[l];
+      auto lsq = std::make_shared<std::unique_ptr<hierarchy::LeastSquaresProjection>>();
+      problem.lsq_projections.push_back([P, lsq](const VecX& fine, VecX& coarse) {
+        if (!*lsq) *lsq = std::make_unique<hierarchy::LeastSquaresProjection>(*P);
+        (*lsq)->apply(fine, coarse);
+      });
+    }
   }
   if (body.contact()) {
     const auto* contact = body.contact();

@@ -3,6 +3,7 @@
 #include <mgcloth/solvers/newton.hpp>
 #include <mgcloth/solvers/newton_variants.hpp>
 #include <mgcloth/solvers/nonlinear_fmg.hpp>
+#include <mgcloth/solvers/rmtr.hpp>
 #include <mgcloth/solvers/trust_region.hpp>
 
 #include <functional>
@@ -150,6 +151,46 @@ Json write_trust_region(const TrustRegionParams& p) {
   return j;
 }
 
+RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
+  p.tr = read_trust_region(r, p.tr);
+  p.pre_smoothing = r.integer("pre_smoothing", p.pre_smoothing, 0, 1000);
+  p.post_smoothing = r.integer("post_smoothing", p.post_smoothing, 0, 1000);
+  if (p.pre_smoothing + p.post_smoothing == 0) r.fail("post_smoothing", "pre_smoothing + post_smoothing must be >= 1");
+  p.coarsest_iters = r.integer("coarsest_iters", p.coarsest_iters, 0, 1'000'000);
+  p.eps_delta = r.number("eps_delta", p.eps_delta, 0.0, 1.0);
+  if (!(p.eps_delta > 0.0 && p.eps_delta < 1.0)) r.fail("eps_delta", "must lie in (0, 1)");
+  p.smoother_cg_iters = r.integer("smoother_cg_iters", p.smoother_cg_iters, 1, 1'000'000);
+  const auto qp = [](TrQp q) { return std::string(q == TrQp::Dogleg ? "dogleg" : "stcg"); };
+  const auto parse_qp = [](const std::string& s) { return s == "dogleg" ? TrQp::Dogleg : TrQp::SteihaugCg; };
+  p.smoother_qp = parse_qp(r.choice("smoother", qp(p.smoother_qp), {"stcg", "dogleg"}));
+  p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp(p.coarsest_qp), {"dogleg", "stcg"}));
+  p.levels = r.integer("levels", p.levels, 0, 20);
+  if (p.levels == 1) r.fail("levels", "RMTR needs at least 2 levels (0: all of the hierarchy); use tr-dogleg for one");
+  p.projection = r.choice("projection", p.projection, {"reverse_subdivision", "least_squares"});
+  p.level_norms = r.boolean("level_norms", p.level_norms);
+  p.scaling = r.choice("scaling", p.scaling, {"none", "jacobi", "block_jacobi"});
+  p.coarse_abs_grad = r.number("coarse_abs_grad", p.coarse_abs_grad, 0.0, kInf);
+  return p;
+}
+Json write_rmtr(const RmtrParams& p) {
+  TrustRegionParams tp = p.tr;
+  tp.qp = TrQp::Dogleg;  // the TR block without the ST-CG keys, which the smoother settings replace
+  Json j = write_trust_region(tp);
+  j["pre_smoothing"] = p.pre_smoothing;
+  j["post_smoothing"] = p.post_smoothing;
+  j["coarsest_iters"] = p.coarsest_iters;
+  j["eps_delta"] = p.eps_delta;
+  j["smoother_cg_iters"] = p.smoother_cg_iters;
+  j["smoother"] = p.smoother_qp == TrQp::Dogleg ? "dogleg" : "stcg";
+  j["coarsest_qp"] = p.coarsest_qp == TrQp::Dogleg ? "dogleg" : "stcg";
+  j["levels"] = p.levels;
+  j["projection"] = p.projection;
+  j["level_norms"] = p.level_norms;
+  j["scaling"] = p.scaling;
+  j["coarse_abs_grad"] = p.coarse_abs_grad;
+  return j;
+}
+
 ExactNewtonParams read_exact_newton(JsonReader& r, ExactNewtonParams p) {
   if (p.mode == ExactNewtonMode::LineSearch) read_line_search(r, p.line_search);
   if (p.mode == ExactNewtonMode::Damped) p.alpha = r.number("alpha", p.alpha, 1e-6, 2.0);
@@ -202,7 +243,7 @@ FmgParams fmg_preset(const std::string& name) {
 
 TrustRegionParams trust_region_preset(const std::string& name) {
   TrustRegionParams p;
-  p.qp = name == "tr-stcg" ? TrQp::SteihaugCg : TrQp::Dogleg;
+  p.qp = name == "tr-stcg" ? TrQp::SteihaugCg : TrQp::Dogleg;  // "tr": the paper's TR, the dogleg (§7.3)
   return p;
 }
 
@@ -213,12 +254,13 @@ ExactNewtonParams exact_newton_preset(const std::string& name) {
   return p;
 }
 
-enum class Kind { Newton, Fmg, Fas, TrustRegion, ExactNewton };
+enum class Kind { Newton, Fmg, Fas, TrustRegion, ExactNewton, Rmtr };
 Kind kind_of(const std::string& name) {
   if (name == "newton" || name == "newton-direct" || name == "newton-amg" || name == "newton-mg" || name == "pd-direct")
     return Kind::Newton;
   if (name == "fas") return Kind::Fas;
-  if (name == "tr-dogleg" || name == "tr-stcg") return Kind::TrustRegion;
+  if (name == "tr" || name == "tr-dogleg" || name == "tr-stcg") return Kind::TrustRegion;
+  if (name == "rmtr") return Kind::Rmtr;
   if (name == "newton-ls" || name == "newton-damped" || name == "linearized") return Kind::ExactNewton;
   return Kind::Fmg;
 }
@@ -227,7 +269,7 @@ Kind kind_of(const std::string& name) {
 
 std::vector<std::string> solver_names() {
   return {"fmg", "newton-direct", "newton-amg", "newton-mg", "fas", "gs-chebyshev", "pd-direct", "pd-gs-chebyshev",
-          "pd-fmg", "newton", "tr-dogleg", "tr-stcg", "newton-ls", "newton-damped", "linearized"};
+          "pd-fmg", "newton", "tr", "tr-dogleg", "tr-stcg", "rmtr", "newton-ls", "newton-damped", "linearized"};
 }
 
 namespace {
@@ -255,6 +297,7 @@ std::unique_ptr<NonlinearSolver> make_solver(const SolverConfig& c, const std::s
     case Kind::ExactNewton:
       s = std::make_unique<ExactNewton>(read_exact_newton(r, exact_newton_preset(c.name)), c.name);
       break;
+    case Kind::Rmtr: s = std::make_unique<Rmtr>(read_rmtr(r, RmtrParams{})); break;
   }
   r.finish();
   return s;
@@ -270,6 +313,7 @@ Json resolved_params(const SolverConfig& c, const std::string& file, const std::
     case Kind::Fas: j = write_fas(read_fas(r, FasParams{})); break;
     case Kind::TrustRegion: j = write_trust_region(read_trust_region(r, trust_region_preset(c.name))); break;
     case Kind::ExactNewton: j = write_exact_newton(read_exact_newton(r, exact_newton_preset(c.name))); break;
+    case Kind::Rmtr: j = write_rmtr(read_rmtr(r, RmtrParams{})); break;
   }
   r.finish();
   return j;

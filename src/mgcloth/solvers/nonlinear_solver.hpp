@@ -26,6 +26,13 @@ struct Problem {
   /// NonlinearSolver::needs_level_objectives().
   std::vector<const physics::Objective*> level_objectives;
   std::vector<const std::vector<Index>*> injection;
+  /// Projections of iterates to the next coarser level (RMTR's P, Kopaničáková 2019 §4.2, §5.3.2), numbered like
+  /// prolongations: projections[l] maps level l to level l+1. `projections` is the discretization's own operator
+  /// (reverse subdivision on a subdivision hierarchy, injection for nested vertex sets); `lsq_projections` the
+  /// least-squares one of eq. 5.18 (built on first call). Filled with level_objectives.
+  using Projection = std::function<void(const VecX& fine, VecX& coarse)>;
+  std::vector<Projection> projections;
+  std::vector<Projection> lsq_projections;
 };
 
 struct Stop {

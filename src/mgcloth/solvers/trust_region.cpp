@@ -40,13 +40,13 @@ void LocalTrustRegion::reset() {
   m_history.clear();
 }
 
-linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm) {
+linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric) {
   ++m_counters.qp_calls;
   if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
   const double tol = m_params.stcg_rel_tol > 0.0
                          ? m_params.stcg_rel_tol
                          : std::min(0.5, std::sqrt(m_g.norm() / std::max(initial_grad_norm, 1e-300)));
-  auto r = linalg::steihaug_cg(m_hessian, m_g, radius, m_params.stcg_max_iters, tol);
+  auto r = linalg::steihaug_cg(m_hessian, m_g, radius, m_params.stcg_max_iters, tol, metric);
   m_counters.cg_iterations += r.iterations;
   return r;
 }
@@ -56,13 +56,23 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
   Timer own_clock;
   const Timer& clock = control.timer ? *control.timer : own_clock;
   LocalTrResult res;
-  double f = h.value(x);
-  h.gradient(x, m_g);
-  ++m_counters.energy_evaluations;
-  ++m_counters.gradient_assemblies;
+  double f = 0.0;
+  if (control.start_energy) {
+    f = *control.start_energy;
+  } else {
+    f = h.value(x);
+    ++m_counters.energy_evaluations;
+  }
+  if (control.start_gradient) {
+    if (control.start_gradient != &m_g) m_g = *control.start_gradient;
+  } else {
+    h.gradient(x, m_g);
+    ++m_counters.gradient_assemblies;
+  }
   double gnorm = m_g.norm();
   check_finite(m_name, f, gnorm, 0);
   res.initial_grad_norm = gnorm;
+  res.initial_energy = f;
   res.grad_target = std::max(control.abs_grad, control.rel_grad * gnorm);
   if (control.trace) control.trace->push_back({0, f, gnorm, clock.ms(), 0.0});
   bool have_hessian = false;
@@ -86,7 +96,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       if (p.qp == TrQp::Dogleg) {
         const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
         try {
-          m_dogleg.prepare(m_hessian, m_g);
+          m_dogleg.prepare(m_hessian, m_g, control.metric);
         } catch (const SolveError& e) {
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
         }
@@ -95,11 +105,11 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       }
       have_hessian = true;
     }
-    const auto qp = solve_qp(radius, res.initial_grad_norm);
+    const auto qp = solve_qp(radius, res.initial_grad_norm, control.metric);
     TrIteration it;
     it.radius = radius;
     it.predicted = qp.model_decrease;
-    it.step_norm = qp.s.norm();
+    it.step_norm = control.metric ? control.metric->norm(qp.s) : qp.s.norm();
     it.qp = qp.reason;
     it.cg_iterations = qp.iterations;
     if (!std::isfinite(qp.model_decrease))

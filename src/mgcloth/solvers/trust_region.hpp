@@ -97,6 +97,13 @@ struct LocalTrControl {
   std::function<double(const VecX& x, double radius)> radius_cap;
   /// Feasibility projection after accepted steps (Problem::project); h is re-evaluated when it moves x.
   std::function<Index(VecX&)> project;
+  /// The trust-region norm: ‖s‖_M of RMTR's level-dependent norm (eq. 4.9) on a coarse level; ℓ2 when null.
+  /// Must outlive the run.
+  const linalg::NormMetric* metric = nullptr;
+  /// When set, h(x) and ∇h(x) at the start are these (known to the caller, e.g. the restricted fine gradient of
+  /// eq. 4.5 or the end of the previous run at the same x) instead of being evaluated.
+  const double* start_energy = nullptr;
+  const VecX* start_gradient = nullptr;
 };
 
 struct LocalTrResult {
@@ -104,6 +111,7 @@ struct LocalTrResult {
   /// "max_iters" (i_max done), "converged", "time_limit", "stalled", "radius_exhausted".
   std::string status;
   double energy = 0.0;  ///< h at the final x
+  double initial_energy = 0.0;  ///< h at the start
   double grad_norm = 0.0;
   double initial_grad_norm = 0.0;
   double grad_target = 0.0;
@@ -132,8 +140,8 @@ class LocalTrustRegion {
   void reset();
 
  private:
-  /// Solves subproblem (4.1) at the current point with radius Δ.
-  linalg::QpResult solve_qp(double radius, double initial_grad_norm);
+  /// Solves subproblem (4.1) at the current point with radius Δ in the norm of `metric` (ℓ2 when null).
+  linalg::QpResult solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric);
 
   TrustRegionParams m_params;
   std::string m_name;

@@ -1,0 +1,427 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/linalg/galerkin.hpp>
+#include <mgcloth/solvers/rmtr.hpp>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+namespace mgcloth::solvers {
+
+struct Rmtr::Level {
+  const physics::Objective* f = nullptr;
+  const hierarchy::TransferTable* S = nullptr;  ///< prolongation from the level below to this one (null: coarsest)
+  Problem::Projection project;                  ///< iterates from this level to the level below
+  linalg::BlockMatrix3 norm_matrix;             ///< M_l = Iᵀ D I of eq. 4.9 (D on the finest: I, or the scaling)
+  std::unique_ptr<linalg::NormMetric> metric;   ///< null where the norm is ℓ2
+  std::unique_ptr<linalg::GalerkinProduct> rap; ///< norm_matrix of this level → the level below's (symbolic, once)
+  std::unique_ptr<LocalTrustRegion> tr;
+  double norm(const VecX& s) const { return metric ? metric->norm(s) : s.norm(); }
+};
+
+Rmtr::Rmtr(RmtrParams params, std::string name) : m_params(std::move(params)), m_name(std::move(name)) {
+  if (m_params.scaling != "none" && m_params.scaling != "jacobi" && m_params.scaling != "block_jacobi")
+    throw_error("{}: scaling must be \"none\", \"jacobi\" or \"block_jacobi\" (got \"{}\")", m_name, m_params.scaling);
+  if (m_params.projection != "reverse_subdivision" && m_params.projection != "least_squares")
+    throw_error("{}: projection must be \"reverse_subdivision\" or \"least_squares\" (got \"{}\")", m_name,
+                m_params.projection);
+}
+
+Rmtr::~Rmtr() = default;
+
+namespace {
+/// Alg. 4.3, line 2.
+double radius_update(const TrustRegionParams& p, double rho, double radius) {
+  if (rho < p.eta1) return p.gamma1 * radius;
+  if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
+  return radius;
+}
+
+/// The identity as a block-diagonal matrix: the ℓ2 norm of the finest level, M_L of eq. 4.9.
+linalg::BlockMatrix3 identity_blocks(Index n) {
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i < n; ++i) pairs.push_back({i, i});
+  linalg::BlockMatrix3 M(n, std::move(pairs));
+  for (Index i = 0; i < n; ++i) M.block(M.diagonal(i)) = Mat3::Identity();
+  return M;
+}
+}  // namespace
+
+void Rmtr::setup(const Problem& problem) {
+  const size_t available = problem.prolongations.size() + 1;
+  if (problem.level_objectives.size() + 1 != available)
+    throw Error(fmt::format("{}: the problem has {} prolongations but {} coarse objectives (the simulation must "
+                            "rediscretize the step on every level)", m_name, available - 1,
+                            problem.level_objectives.size()));
+  const auto& projections = m_params.projection == "least_squares" ? problem.lsq_projections : problem.projections;
+  if (projections.size() + 1 != available)
+    throw Error(fmt::format("{}: the problem provides no {} projection for its {} levels", m_name, m_params.projection,
+                            available));
+  const size_t used = m_params.levels > 0 ? std::min(available, static_cast<size_t>(m_params.levels)) : available;
+  if (used < 2)
+    throw Error(fmt::format("{}: needs at least two levels, the problem has {} (a shell of level 1, or a solver "
+                            "block that did not ask for the hierarchy); use tr-dogleg on a single level",
+                            m_name, available));
+
+  std::vector<const void*> key{problem.objective};
+  for (size_t k = 0; k + 1 < used; ++k) {
+    key.push_back(problem.level_objectives[k]);
+    key.push_back(problem.prolongations[k]);
+  }
+  if (key == m_key && m_levels.size() == used) {
+    // Same hierarchy: keep the norm matrices and Local_TR objects; the projections may capture new state.
+    for (size_t i = 1; i < used; ++i) m_levels[i]->project = projections[used - 1 - i];
+    return;
+  }
+  m_key = key;
+  m_levels.clear();
+  m_levels.resize(used);
+  // Internal numbering: 0 the coarsest used level, used - 1 the finest (the paper's l); problem level k = used-1-i.
+  for (size_t i = 0; i < used; ++i) {
+    const size_t k = used - 1 - i;
+    auto lv = std::make_unique<Level>();
+    lv->f = k == 0 ? problem.objective : problem.level_objectives[k - 1];
+    if (i > 0) {
+      lv->S = problem.prolongations[k];
+      lv->project = projections[k];
+      if (lv->S->num_fine * 3 != lv->f->num_dofs())
+        throw Error(fmt::format("{}: level {}: the prolongation has {} fine points, the objective {} dofs", m_name, k,
+                                lv->S->num_fine, lv->f->num_dofs()));
+      if (lv->S->t_offsets.empty()) throw Error(fmt::format("{}: level {}: prolongation without transpose", m_name, k));
+    }
+    TrustRegionParams tp = m_params.tr;
+    tp.qp = i == 0 ? m_params.coarsest_qp : m_params.smoother_qp;
+    if (i > 0 || used == 1) {
+      if (tp.qp == TrQp::SteihaugCg) {
+        // A fixed budget of CG iterations (§7.3): the tolerance only stops CG at an exact solve.
+        tp.stcg_max_iters = m_params.smoother_cg_iters;
+        tp.stcg_rel_tol = 1e-12;
+      }
+    }
+    lv->tr = std::make_unique<LocalTrustRegion>(tp, fmt::format("{} level {}", m_name, k));
+    m_levels[i] = std::move(lv);
+  }
+  // Eq. 4.9: ‖s‖_l = ‖I_{L-1}^L ⋯ I_l^{l+1} s‖₂, i.e. M_l = S_{l+1}ᵀ M_{l+1} S_{l+1} from M_L = I; built once per
+  // hierarchy (Galerkin products of the fixed tables) and factorized once.
+  m_levels[used - 1]->norm_matrix = identity_blocks(m_levels[used - 1]->f->num_dofs() / 3);
+  for (size_t i = used - 1; i-- > 0;) {
+    Level& fine = *m_levels[i + 1];
+    const hierarchy::TransferTable& S = *fine.S;
+    fine.rap = std::make_unique<linalg::GalerkinProduct>(fine.norm_matrix, S.num_coarse, S.offsets, S.indices, S.weights);
+    fine.rap->compute(fine.norm_matrix, m_levels[i]->norm_matrix);  // the pattern the next level's product needs
+  }
+  update_norms(false);
+}
+
+void Rmtr::update_norms(bool finest_scaled) {
+  const size_t used = m_levels.size();
+  Level& top = *m_levels[used - 1];
+  top.metric = finest_scaled ? std::make_unique<linalg::NormMetric>(top.norm_matrix) : nullptr;
+  for (size_t i = used - 1; i-- > 0;) {
+    const Level& fine = *m_levels[i + 1];
+    fine.rap->compute(fine.norm_matrix, m_levels[i]->norm_matrix);
+    m_levels[i]->metric =
+        m_params.level_norms ? std::make_unique<linalg::NormMetric>(m_levels[i]->norm_matrix) : nullptr;
+  }
+}
+
+void Rmtr::scale_finest(const VecX& x) {
+  // A fixed diagonal scaling of the finest level for the whole solve: D = diag(d_i I₃) with d_i the mean diagonal
+  // entry of the Hessian's block at the start (floored, so that D is SPD where a block is indefinite). The ST-CG
+  // smoother is then Jacobi-preconditioned and the finest trust region is the ellipsoid ‖s‖_D ≤ Δ (Conn-Gould-
+  // Toint §6.7); the coarse norms (4.9) follow as Iᵀ D I.
+  Level& top = *m_levels.back();
+  top.f->hessian(x, m_scaling_hessian, /*project_psd=*/false);
+  ++m_counters.back().hessian_assemblies;
+  const Index n = top.norm_matrix.rows();
+  if (m_params.scaling == "block_jacobi") {
+    // D_i = the 3x3 diagonal block itself, its eigenvalues floored: it separates a point's in-plane (membrane)
+    // and normal (bending) stiffness, which differ by (h/t)² and which a scalar scaling cannot tell apart.
+    double emax = 0.0;
+    std::vector<Eigen::SelfAdjointEigenSolver<Mat3>> eig(static_cast<size_t>(n));
+    for (Index i = 0; i < n; ++i) {
+      eig[static_cast<size_t>(i)].compute(m_scaling_hessian.block(m_scaling_hessian.diagonal(i)));
+      emax = std::max(emax, eig[static_cast<size_t>(i)].eigenvalues().maxCoeff());
+    }
+    if (!(emax > 0.0)) throw SolveError(fmt::format("{}: the Hessian has no positive diagonal to scale by", m_name));
+    for (Index i = 0; i < n; ++i) {
+      const auto& e = eig[static_cast<size_t>(i)];
+      const Vec3 lambda = e.eigenvalues().cwiseMax(1e-8 * emax);
+      top.norm_matrix.block(top.norm_matrix.diagonal(i)) = e.eigenvectors() * lambda.asDiagonal() * e.eigenvectors().transpose();
+    }
+    update_norms(true);
+    return;
+  }
+  std::vector<double> d(static_cast<size_t>(n));
+  double dmax = 0.0;
+  for (Index i = 0; i < n; ++i) {
+    const Mat3& b = m_scaling_hessian.block(m_scaling_hessian.diagonal(i));
+    d[static_cast<size_t>(i)] = b.trace() / 3.0;
+    dmax = std::max(dmax, d[static_cast<size_t>(i)]);
+  }
+  if (!(dmax > 0.0)) throw SolveError(fmt::format("{}: the Hessian has no positive diagonal to scale by", m_name));
+  for (Index i = 0; i < n; ++i)
+    top.norm_matrix.block(top.norm_matrix.diagonal(i)) = std::max(d[static_cast<size_t>(i)], 1e-8 * dmax) * Mat3::Identity();
+  update_norms(true);
+}
+
+Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, double parent_radius, const LocalTrControl& base) {
+  Level& L = *m_levels[static_cast<size_t>(l)];
+  const int top = static_cast<int>(m_levels.size()) - 1;
+  const bool finest = l == top, coarsest = l == 0;
+  RmtrLevelCounters& C = m_counters[static_cast<size_t>(l)];
+  ++C.visits;
+  const TrustRegionParams& p = m_params.tr;
+
+  // Line 1: the level's model h_l (eq. 4.3) with δg of eq. 4.4; its gradient at x₀ is the restricted one (4.5).
+  const VecX x0 = x;
+  std::unique_ptr<LevelModel> h;
+  LocalTrControl c = base;
+  c.metric = L.metric.get();
+  double f0 = 0.0, radius = 0.0;
+  if (finest) {
+    h = std::make_unique<LevelModel>(*L.f);
+    radius = m_radius;
+    if (m_start_gradient) {
+      c.start_energy = &m_finest_energy;
+      c.start_gradient = m_start_gradient;
+    }
+  } else {
+    VecX g0;
+    f0 = L.f->value(x0);
+    L.f->gradient(x0, g0);
+    ++C.energy_evaluations;
+    ++C.gradient_assemblies;
+    h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0);
+    c.start_energy = &f0;
+    c.start_gradient = restricted;
+    c.rel_grad = 0.0;
+    c.abs_grad = m_params.coarse_abs_grad > 0.0 ? m_params.coarse_abs_grad : base.abs_grad;
+    c.project = nullptr;
+    c.trace = nullptr;
+    radius = parent_radius;
+    // Alg. 4.3, lines 3-7: what is left of the fine radius for this level's further steps. (The printed
+    // condition of line 4 is inverted; the text says δ = 0 exactly when no room is left.)
+    c.radius_cap = [&, parent_radius](const VecX& xi, double r) {
+      const double d = L.norm(xi - x0);
+      return d < (1.0 - m_params.eps_delta) * parent_radius ? std::min(r, parent_radius - d) : 0.0;
+    };
+  }
+  const auto record = [&](double energy) {
+    if (finest && (m_finest_energies.empty() || energy != m_finest_energies.back())) m_finest_energies.push_back(energy);
+  };
+
+  // Line 2: pre-smoothing.
+  c.max_iters = coarsest ? (m_params.coarsest_iters > 0 ? m_params.coarsest_iters : m_params.pre_smoothing)
+                         : m_params.pre_smoothing;
+  const LocalTrResult r1 = L.tr->run(*h, x, radius, c);
+  CycleResult out;
+  out.h_start = r1.initial_energy;
+  out.h_end = r1.energy;
+  double fx = r1.energy;
+  if (finest) {
+    m_finest_energy = fx;
+    m_start_gradient = &L.tr->gradient();
+    if (r1.status == "stalled") m_finest_stalled = true;
+    record(fx);
+  }
+  const auto finish = [&](bool converged) {
+    out.h_end = fx;
+    out.converged = converged;
+    if (finest) m_radius = radius;
+    return out;
+  };
+  if (r1.status == "converged") return finish(true);
+  if (r1.status == "radius_exhausted") {
+    ++C.radius_exhausted;
+    return finish(false);
+  }
+  if (r1.status == "time_limit") return finish(false);
+
+  bool moved = false;
+  if (!coarsest) {
+    // Lines 4-12: the coarse correction from x^{l-1}_0 = P x (eq. 4.6) with the restricted gradient, in the
+    // current radius (eq. 4.8), prolongated (eq. 4.10) and tested by the multilevel ratio (eq. 4.11).
+    VecX gc, xc0;
+    L.S->apply_transpose(L.tr->gradient(), gc);
+    L.project(x, xc0);
+    VecX xc = xc0;
+    const CycleResult rc = visit(l - 1, xc, &gc, radius, base);
+    RmtrCorrection corr;
+    corr.level = l;
+    corr.coarse_reduction = rc.h_start - rc.h_end;
+    corr.radius = radius;
+    if (corr.coarse_reduction > 0.0) {
+      VecX s;
+      L.S->apply(VecX(xc - xc0), s);
+      corr.step_norm = L.norm(s);
+      VecX trial = x + s;
+      const double ft = h->value(trial);
+      ++C.energy_evaluations;
+      corr.fine_reduction = fx - ft;
+      corr.rho = std::isfinite(ft) ? corr.fine_reduction / corr.coarse_reduction : -kInf;
+      corr.accepted = corr.rho > p.eta1;
+      if (corr.accepted) {
+        x.swap(trial);
+        fx = ft;
+        moved = true;
+        ++C.corrections_accepted;
+        record(fx);
+      } else {
+        ++C.corrections_rejected;
+      }
+      // Line 12: Radius_update on this level, still bounded by the parent's radius.
+      radius = radius_update(p, corr.rho, radius);
+      if (c.radius_cap) radius = c.radius_cap(x, radius);
+    }
+    logger().debug("rmtr level {}: coarse reduction {:.3e}, fine {:.3e}, rho {:+.3e}, |s| {:.3e} of {:.3e}, {}", l,
+                   corr.coarse_reduction, corr.fine_reduction, corr.rho, corr.step_norm, corr.radius,
+                   corr.accepted ? "accepted" : "rejected");
+    m_corrections.push_back(corr);
+    if (!(radius > 0.0)) {
+      ++C.radius_exhausted;
+      return finish(false);
+    }
+  }
+
+  // Lines 13-17: post-smoothing; its first test is the termination of line 13.
+  LocalTrControl c2 = c;
+  c2.max_iters = coarsest ? (m_params.coarsest_iters > 0 ? 0 : m_params.post_smoothing) : m_params.post_smoothing;
+  double f_here = fx;
+  if (!moved) {
+    // x is where pre-smoothing ended: its energy and gradient are known.
+    c2.start_energy = &f_here;
+    c2.start_gradient = &L.tr->gradient();
+  } else {
+    c2.start_energy = nullptr;
+    c2.start_gradient = nullptr;
+  }
+  if (c2.max_iters == 0 && !moved) return finish(false);
+  const LocalTrResult r2 = L.tr->run(*h, x, radius, c2);
+  fx = r2.energy;
+  if (finest) {
+    m_finest_energy = fx;
+    if (r2.status == "stalled") m_finest_stalled = true;
+    record(fx);
+  }
+  if (r2.status == "radius_exhausted") ++C.radius_exhausted;
+  return finish(r2.status == "converged");
+}
+
+void Rmtr::accumulate() {
+  for (size_t i = 0; i < m_levels.size(); ++i) {
+    const TrCounters& t = m_levels[i]->tr->counters();
+    RmtrLevelCounters& C = m_counters[i];
+    C.dofs = m_levels[i]->f->num_dofs();
+    C.hessian_assemblies += t.hessian_assemblies;
+    C.gradient_assemblies += t.gradient_assemblies;
+    C.energy_evaluations += t.energy_evaluations;
+    C.qp_calls += t.qp_calls;
+    C.cg_iterations += t.cg_iterations;
+    C.accepted += t.accepted;
+    C.rejected += t.rejected;
+  }
+}
+
+double Rmtr::work_units_assembly() const {
+  double w = 0.0;
+  const int top = static_cast<int>(m_counters.size()) - 1;
+  for (int l = 0; l <= top; ++l) w += std::ldexp(1.0, -2 * (top - l)) * m_counters[static_cast<size_t>(l)].hessian_assemblies;
+  return w;
+}
+
+double Rmtr::work_units_qp() const {
+  double w = 0.0;
+  const int top = static_cast<int>(m_counters.size()) - 1;
+  for (int l = 0; l <= top; ++l) w += std::ldexp(1.0, -2 * (top - l)) * m_counters[static_cast<size_t>(l)].qp_calls;
+  return w;
+}
+
+SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
+  Timer timer;
+  setup(problem);
+  for (auto& lv : m_levels) lv->tr->reset();
+  m_counters.assign(m_levels.size(), {});
+  m_corrections.clear();
+  m_finest_energies.clear();
+  m_radius = m_params.tr.delta0;
+  m_finest_stalled = false;
+  Level& F = *m_levels.back();
+  if (m_params.scaling != "none") scale_finest(x);
+
+  LocalTrControl base;
+  base.abs_grad = stop.abs_grad;
+  base.max_seconds = stop.max_seconds;
+  base.timer = &timer;
+  base.project = problem.project;
+
+  // The start point's energy and gradient, shared with the first pre-smoothing.
+  m_finest_energy = F.f->value(x);
+  F.f->gradient(x, m_start);
+  m_start_gradient = &m_start;
+  ++m_counters.back().energy_evaluations;
+  ++m_counters.back().gradient_assemblies;
+  double gnorm = m_start.norm();
+  check_finite(m_name, m_finest_energy, gnorm, 0);
+  SolveReport rep;
+  rep.initial_grad_norm = gnorm;
+  const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
+  base.abs_grad = target;
+  m_finest_energies.push_back(m_finest_energy);
+  if (trace) trace->push_back({0, m_finest_energy, gnorm, timer.ms(), 0.0});
+  double last_df = kInf, last_dx = kInf, last_radius = 0.0;
+  int cycle = 0;
+  VecX previous;
+  for (;; ++cycle) {
+    if (should_stop(gnorm, target, timer.seconds(), stop, rep) || cycle >= stop.max_iters) {
+      if (rep.status.empty()) rep.status = "max_iters";
+      break;
+    }
+    // Criterion (7.1), second part, on the finest level.
+    if (last_radius > m_params.tr.stagnation_delta &&
+        (last_df < m_params.tr.stagnation_tol || last_dx < m_params.tr.stagnation_tol)) {
+      rep.status = "stalled";
+      break;
+    }
+    previous = x;
+    const double f_before = m_finest_energy;
+    m_finest_stalled = false;
+    visit(static_cast<int>(m_levels.size()) - 1, x, nullptr, kInf, base);
+    gnorm = F.tr->gradient().norm();
+    check_finite(m_name, m_finest_energy, gnorm, cycle + 1);
+    last_df = std::abs(f_before - m_finest_energy);
+    last_dx = (x - previous).norm();
+    last_radius = m_radius;
+    if (trace) trace->push_back({cycle + 1, m_finest_energy, gnorm, timer.ms(), last_dx});
+    logger().debug("rmtr cycle {:4d}: E = {:.12e}  |g| = {:.3e}  radius {:.3e}", cycle + 1, m_finest_energy, gnorm,
+                   m_radius);
+    if (last_dx == 0.0 && m_finest_stalled) {
+      ++cycle;
+      rep.status = "stalled";
+      break;
+    }
+  }
+  accumulate();
+  finish_report(rep, cycle, m_finest_energy, gnorm, target, timer.ms());
+  int corr_acc = 0, corr_rej = 0;
+  for (const auto& c : m_counters) {
+    corr_acc += c.corrections_accepted;
+    corr_rej += c.corrections_rejected;
+  }
+  rep.counters = {{"corrections_accepted", corr_acc}, {"corrections_rejected", corr_rej},
+                  {"work_assembly", work_units_assembly()}, {"work_qp", work_units_qp()},
+                  {"final_radius", m_radius}, {"levels", static_cast<double>(m_levels.size())}};
+  for (size_t i = m_counters.size(); i-- > 0;) {
+    const size_t k = m_counters.size() - 1 - i;  // 0 = finest
+    const auto& c = m_counters[i];
+    rep.counters.push_back({fmt::format("level{}_dofs", k), c.dofs});
+    rep.counters.push_back({fmt::format("level{}_hessian_assemblies", k), c.hessian_assemblies});
+    rep.counters.push_back({fmt::format("level{}_qp_calls", k), c.qp_calls});
+    rep.counters.push_back({fmt::format("level{}_cg_iterations", k), static_cast<double>(c.cg_iterations)});
+    rep.counters.push_back({fmt::format("level{}_radius_exhausted", k), c.radius_exhausted});
+  }
+  m_start_gradient = nullptr;
+  return rep;
+}
+
+}  // namespace mgcloth::solvers

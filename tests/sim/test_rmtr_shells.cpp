@@ -1,0 +1,143 @@
+// RMTR on the subdivision hierarchy (Kopaničáková 2019, §4.2-4.3, §7): the coarse models, the transfer of iterates
+// and gradients, the fine trust region kept by every coarse correction, and the solution it converges to.
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/sim/scene.hpp>
+#include <mgcloth/sim/simulator.hpp>
+#include <mgcloth/solvers/factory.hpp>
+#include <mgcloth/solvers/rmtr.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+using namespace mgcloth;
+
+namespace {
+
+sim::Scene shell_scene(const std::string& name, int level) {
+  sim::Scene scene = sim::load_scene(std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_" + name + ".json");
+  scene.shells[0].level = level;
+  return scene;
+}
+
+/// Solves the scene's first step with the named solver from the same start; returns the report and the result.
+struct Solved {
+  solvers::SolveReport report;
+  VecX x;
+};
+Solved solve_first_step(const sim::Scene& base, const std::string& solver, const Json& params = Json::object(),
+                        int max_iters = 20000) {
+  sim::Scene scene = base;
+  scene.solver.name = solver;
+  scene.solver.params = params;
+  scene.solver.stop.max_iters = max_iters;
+  sim::Simulator sim(scene);
+  Solved out;
+  solvers::Problem problem = sim.prepare_shell_problem(0, out.x);
+  out.report = sim.shell_solver(0).minimize(problem, out.x, scene.solver.stop, nullptr);
+  return out;
+}
+
+}  // namespace
+
+// Eq. 4.5: the coarse model's gradient at the projected iterate is the restricted fine gradient, on every level of
+// the Drape (whose ramped corner targets and inertia are set on each level) at a perturbed state.
+TEST(Rmtr, CoarseModelIsFirstOrderConsistent) {
+  sim::Scene scene = shell_scene("drape", 3);
+  scene.solver.name = "rmtr";
+  sim::Simulator sim(scene);
+  VecX x;
+  sim.prepare_shell_problem(0, x);
+  sim::ShellBody& body = *sim.shells()[0];
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1e-3);
+  for (Index i = 0; i < x.size(); ++i) x[i] += n(rng);
+  for (int level = body.num_levels() - 2; level >= 0; --level) {
+    const physics::Objective& fine = body.level_objective(level + 1);
+    const physics::Objective& coarse = body.level_objective(level);
+    VecX g, gc, xc, g0;
+    fine.gradient(x, g);
+    body.hierarchy().subdivision(level).apply_transpose(g, gc);
+    body.project(level, x, xc);
+    coarse.gradient(xc, g0);
+    const solvers::LevelModel h(coarse, gc - g0, xc);
+    VecX hg;
+    h.gradient(xc, hg);
+    EXPECT_LT((hg - gc).norm(), 1e-12 * gc.norm()) << "level " << level;
+    EXPECT_NEAR(h.value(xc), coarse.value(xc), 1e-12 * std::abs(coarse.value(xc)));
+    // The coarse objective is the same step rediscretized: the same terms, and it is not the fine one restricted.
+    EXPECT_EQ(coarse.num_dofs(), 3 * body.hierarchy().mesh(level).num_vertices());
+    x = xc;
+  }
+}
+
+// Eq. 4.7: every prolongated coarse correction lies inside the trust region of the level that receives it, in that
+// level's norm (eq. 4.9), whether or not it is accepted; and the fine energy never increases (eq. 4.11 with η1 > 0).
+TEST(Rmtr, CoarseCorrectionsStayInTheFineTrustRegionAndEnergyDecreases) {
+  sim::Scene scene = shell_scene("drooping", 3);
+  scene.solver.name = "rmtr";
+  sim::Simulator sim(scene);
+  VecX x;
+  solvers::Problem problem = sim.prepare_shell_problem(0, x);
+  solvers::Rmtr rmtr;
+  solvers::Stop stop = scene.solver.stop;
+  stop.max_iters = 60;
+  const auto rep = rmtr.minimize(problem, x, stop, nullptr);
+  EXPECT_GT(rep.iterations, 0);
+  ASSERT_FALSE(rmtr.corrections().empty());
+  int with_step = 0;
+  for (const auto& c : rmtr.corrections()) {
+    if (c.coarse_reduction <= 0.0) continue;
+    ++with_step;
+    EXPECT_LE(c.step_norm, c.radius * (1.0 + 1e-8)) << "level " << c.level;
+  }
+  EXPECT_GT(with_step, 10);
+  const auto& e = rmtr.finest_energies();
+  ASSERT_GT(e.size(), 2u);
+  for (size_t i = 1; i < e.size(); ++i) EXPECT_LT(e[i], e[i - 1]) << "finest energy rose at change " << i;
+  // All three levels worked: derivatives were assembled on each.
+  ASSERT_EQ(rmtr.level_counters().size(), 3u);
+  for (const auto& c : rmtr.level_counters()) EXPECT_GT(c.hessian_assemblies, 0);
+}
+
+// RMTR and the single-level TR with the dogleg converge to the same minimizer of the Trampoline's first step at
+// 363 dofs (two levels), both to the paper's criterion ‖g‖ < 1e-7, with either projection of iterates. The
+// smoother is strengthened (Jacobi scaling, 100 CG iterations) so that the small problem converges in tens of
+// cycles; the paper's setting (10 unpreconditioned CG iterations) converges too slowly for a unit test here
+// (bench/RESULTS.md has its cycle counts).
+TEST(Rmtr, ConvergesToTheSameSolutionAsTheDoglegTrustRegion) {
+  const sim::Scene scene = shell_scene("trampoline", 2);
+  const Solved tr = solve_first_step(scene, "tr-dogleg");
+  ASSERT_TRUE(tr.report.converged) << tr.report.status;
+  for (const std::string projection : {"reverse_subdivision", "least_squares"}) {
+    const Solved ml = solve_first_step(
+        scene, "rmtr", Json{{"scaling", "jacobi"}, {"smoother_cg_iters", 100}, {"projection", projection}}, 500);
+    ASSERT_TRUE(ml.report.converged) << projection << ": " << ml.report.status << " after " << ml.report.iterations
+                                     << " cycles, |g| = " << ml.report.grad_norm;
+    EXPECT_LT(ml.report.grad_norm, 1e-7);
+    EXPECT_NEAR(ml.report.energy, tr.report.energy, 1e-10 * std::abs(tr.report.energy)) << projection;
+    EXPECT_LT((ml.x - tr.x).lpNorm<Eigen::Infinity>(), 1e-5) << projection;
+  }
+}
+
+TEST(Rmtr, BadParametersNameTheField) {
+  const auto expect_error = [](const Json& params, const std::string& field) {
+    solvers::SolverConfig c;
+    c.name = "rmtr";
+    c.params = params;
+    try {
+      solvers::make_solver(c, "scene.json", "solver.params");
+      ADD_FAILURE() << "accepted " << params.dump();
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  expect_error({{"levels", 1}}, "levels");
+  expect_error({{"projection", "nearest"}}, "projection");
+  expect_error({{"eps_delta", 1.5}}, "eps_delta");
+  expect_error({{"smoother", "newton"}}, "smoother");
+  expect_error({{"pre_smoothing", 0}, {"post_smoothing", 0}}, "post_smoothing");
+  expect_error({{"scaling", "newton"}}, "scaling");
+  expect_error({{"mu1", 2}}, "mu1");  // unknown key
+}
