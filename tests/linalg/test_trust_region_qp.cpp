@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/linalg/gauss_seidel.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
 
 #include <Eigen/Dense>
@@ -553,4 +554,25 @@ TEST(TrustRegionQpMetric, ZeroGradientGivesAZeroStep) {
   dogleg.prepare(c.H, zero, &metric);
   EXPECT_EQ(dogleg.step(1.0).s.norm(), 0.0);
   EXPECT_EQ(dogleg.step(1.0).model_decrease, 0.0);
+}
+
+// The Gauss-Seidel smoothing step: inside the ball, at least the Cauchy decrease (SDC) on SPD and indefinite H,
+// and, on an SPD H with a large radius and many sweeps, the Newton step (symmetric GS converges for SPD matrices).
+TEST(TrustRegionQpGaussSeidel, StaysInsideTheBallAndBeatsTheCauchyPoint) {
+  for (const auto& c : cases()) {
+    MultiColorGaussSeidel gs(c.H);
+    gs.set_matrix(c.H);
+    for (double delta : kRadii)
+      for (int sweeps : {1, 3}) {
+        const QpResult r = gauss_seidel_step(c.H, c.g, delta, sweeps, gs);
+        EXPECT_LE(r.s.norm(), delta * (1.0 + 1e-10));
+        EXPECT_NEAR(r.model_decrease, model_decrease(c.H, c.g, r.s), 1e-10 * std::abs(r.model_decrease));
+        const double cauchy = cauchy_point(c.H, c.g, delta).model_decrease;
+        EXPECT_GE(r.model_decrease, cauchy - 1e-12 * std::abs(cauchy)) << "spd " << c.spd << " delta " << delta;
+      }
+    if (!c.spd) continue;
+    const QpResult newton = gauss_seidel_step(c.H, c.g, 1e6, 400, gs);
+    const VecX exact = Eigen::MatrixXd(c.H.to_sparse()).ldlt().solve(-c.g);
+    EXPECT_LT((newton.s - exact).norm(), 1e-8 * exact.norm());
+  }
 }

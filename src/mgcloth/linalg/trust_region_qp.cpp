@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/linalg/gauss_seidel.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
 
 #include <algorithm>
@@ -102,6 +103,33 @@ QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const 
   r.norm = clamp_to_ball(r.s, delta, metric);
   r.model_decrease = model_decrease(H, g, r.s);
   r.reason = t * std::sqrt(gg) >= delta * (1.0 - 1e-12) ? QpStop::Boundary : QpStop::Converged;
+  return r;
+}
+
+QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps,
+                           const MultiColorGaussSeidel& gs, const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "gauss_seidel_step");
+  QpResult cauchy = cauchy_point(H, g, delta, metric);
+  if (g.norm() == 0.0) return cauchy;
+  VecX d = VecX::Zero(g.size());
+  gs.symmetric_sweeps(-g, d, std::max(1, sweeps));
+  const double gd = g.dot(d);
+  const double dHd = d.dot(H * d);
+  const double dn = metric ? metric->norm(d) : d.norm();
+  if (!(gd < 0.0) || !std::isfinite(dHd) || !(dn > 0.0)) return cauchy;
+  // The model along d, m(τd) = τ gᵀd + ½ τ² dᵀHd, minimized over 0 < τ ≤ Δ/‖d‖.
+  const double tmax = delta / dn;
+  const double t = dHd > 0.0 ? std::min(tmax, -gd / dHd) : tmax;
+  QpResult r;
+  r.s = t * d;
+  r.norm = t * dn;
+  r.model_decrease = model_decrease(H, g, r.s);
+  r.iterations = sweeps;
+  r.reason = t >= tmax * (1.0 - 1e-12) ? QpStop::Boundary : QpStop::Converged;
+  if (!(r.model_decrease >= cauchy.model_decrease)) {
+    cauchy.iterations = sweeps;
+    return cauchy;
+  }
   return r;
 }
 

@@ -80,6 +80,16 @@ QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const 
 QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
                      const NormMetric* metric = nullptr);
 
+/// A smoothing step for the subproblem (beyond Kopaničáková 2019; the smoother of Wang 2018 §4.3): `sweeps`
+/// symmetric multi-color block Gauss-Seidel sweeps on H s = −g from s = 0, then the model's minimizer along that
+/// direction inside the ball (‖·‖_M with a metric). Unlike a few CG iterations, which reduce the error components of
+/// the largest eigenvalues first, Gauss-Seidel damps the locally oscillatory ones whatever their eigenvalue, the
+/// job of a multigrid smoother. Where the sweeps give no descent direction (H indefinite) or less decrease than the
+/// Cauchy point, the Cauchy point is returned, so SDC holds. `gs` must hold H (set_matrix); `iterations` reports
+/// the sweeps.
+QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps,
+                           const class MultiColorGaussSeidel& gs, const NormMetric* metric = nullptr);
+
 /// What a shifted Cholesky factorization needed.
 struct ShiftedFactorization {
   double shift = 0.0;  ///< λ of the factorization that succeeded (0: H itself is positive definite)

@@ -160,15 +160,21 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.eps_delta = r.number("eps_delta", p.eps_delta, 0.0, 1.0);
   if (!(p.eps_delta > 0.0 && p.eps_delta < 1.0)) r.fail("eps_delta", "must lie in (0, 1)");
   p.smoother_cg_iters = r.integer("smoother_cg_iters", p.smoother_cg_iters, 1, 1'000'000);
-  const auto qp = [](TrQp q) { return std::string(q == TrQp::Dogleg ? "dogleg" : "stcg"); };
-  const auto parse_qp = [](const std::string& s) { return s == "dogleg" ? TrQp::Dogleg : TrQp::SteihaugCg; };
-  p.smoother_qp = parse_qp(r.choice("smoother", qp(p.smoother_qp), {"stcg", "dogleg"}));
+  const auto qp = [](TrQp q) {
+    return std::string(q == TrQp::Dogleg ? "dogleg" : q == TrQp::GaussSeidel ? "gauss_seidel" : "stcg");
+  };
+  const auto parse_qp = [](const std::string& s) {
+    return s == "dogleg" ? TrQp::Dogleg : s == "gauss_seidel" ? TrQp::GaussSeidel : TrQp::SteihaugCg;
+  };
+  p.smoother_qp = parse_qp(r.choice("smoother", qp(p.smoother_qp), {"stcg", "dogleg", "gauss_seidel"}));
+  p.tr.gs_sweeps = r.integer("smoother_sweeps", p.tr.gs_sweeps, 1, 1000);
   p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp(p.coarsest_qp), {"dogleg", "stcg"}));
   p.levels = r.integer("levels", p.levels, 0, 20);
   if (p.levels == 1) r.fail("levels", "RMTR needs at least 2 levels (0: all of the hierarchy); use tr-dogleg for one");
   p.projection = r.choice("projection", p.projection, {"reverse_subdivision", "least_squares"});
   p.level_norms = r.boolean("level_norms", p.level_norms);
   p.scaling = r.choice("scaling", p.scaling, {"none", "jacobi", "block_jacobi"});
+  p.coarse_model = r.choice("coarse_model", p.coarse_model, {"first_order", "second_order"});
   p.coarse_abs_grad = r.number("coarse_abs_grad", p.coarse_abs_grad, 0.0, kInf);
   return p;
 }
@@ -181,12 +187,14 @@ Json write_rmtr(const RmtrParams& p) {
   j["coarsest_iters"] = p.coarsest_iters;
   j["eps_delta"] = p.eps_delta;
   j["smoother_cg_iters"] = p.smoother_cg_iters;
-  j["smoother"] = p.smoother_qp == TrQp::Dogleg ? "dogleg" : "stcg";
+  j["smoother"] = p.smoother_qp == TrQp::Dogleg ? "dogleg" : p.smoother_qp == TrQp::GaussSeidel ? "gauss_seidel" : "stcg";
+  j["smoother_sweeps"] = p.tr.gs_sweeps;
   j["coarsest_qp"] = p.coarsest_qp == TrQp::Dogleg ? "dogleg" : "stcg";
   j["levels"] = p.levels;
   j["projection"] = p.projection;
   j["level_norms"] = p.level_norms;
   j["scaling"] = p.scaling;
+  j["coarse_model"] = p.coarse_model;
   j["coarse_abs_grad"] = p.coarse_abs_grad;
   return j;
 }

@@ -15,11 +15,17 @@ struct Rmtr::Level {
   linalg::BlockMatrix3 norm_matrix;             ///< M_l = Iᵀ D I of eq. 4.9 (D on the finest: I, or the scaling)
   std::unique_ptr<linalg::NormMetric> metric;   ///< null where the norm is ℓ2
   std::unique_ptr<linalg::GalerkinProduct> rap; ///< norm_matrix of this level → the level below's (symbolic, once)
+  // Second-order coarse models: this level's model Hessian, its Galerkin product for the level below, and (as the
+  // level below) the correction δH = Sᵀ H S − ∇²f(x₀) in the pattern of ∇²f.
+  std::unique_ptr<linalg::GalerkinProduct> hessian_rap;
+  linalg::BlockMatrix3 model_hessian, galerkin, delta_h;
   std::unique_ptr<LocalTrustRegion> tr;
   double norm(const VecX& s) const { return metric ? metric->norm(s) : s.norm(); }
 };
 
 Rmtr::Rmtr(RmtrParams params, std::string name) : m_params(std::move(params)), m_name(std::move(name)) {
+  if (m_params.coarse_model != "first_order" && m_params.coarse_model != "second_order")
+    throw_error("{}: coarse_model must be \"first_order\" or \"second_order\" (got \"{}\")", m_name, m_params.coarse_model);
   if (m_params.scaling != "none" && m_params.scaling != "jacobi" && m_params.scaling != "block_jacobi")
     throw_error("{}: scaling must be \"none\", \"jacobi\" or \"block_jacobi\" (got \"{}\")", m_name, m_params.scaling);
   if (m_params.projection != "reverse_subdivision" && m_params.projection != "least_squares")
@@ -165,7 +171,8 @@ void Rmtr::scale_finest(const VecX& x) {
   update_norms(true);
 }
 
-Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, double parent_radius, const LocalTrControl& base) {
+Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin,
+                               double parent_radius, const LocalTrControl& base) {
   Level& L = *m_levels[static_cast<size_t>(l)];
   const int top = static_cast<int>(m_levels.size()) - 1;
   const bool finest = l == top, coarsest = l == 0;
@@ -192,7 +199,23 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, double par
     L.f->gradient(x0, g0);
     ++C.energy_evaluations;
     ++C.gradient_assemblies;
-    h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0);
+    if (galerkin) {
+      // Second order (beyond the paper): ∇²h(x₀) = Sᵀ ∇²h_{l+1} S, the Galerkin operator, so that near a minimizer
+      // the V-cycle is a two-grid method with the exact coarse operator whatever the coarse state's strains.
+      L.f->hessian(x0, L.delta_h, /*project_psd=*/false);
+      ++C.hessian_assemblies;
+      const auto& rows = L.delta_h.row_offsets();
+      const auto& cols = L.delta_h.col_indices();
+      for (Index i = 0; i < L.delta_h.rows(); ++i)
+        for (Index k = rows[i]; k < rows[i + 1]; ++k) {
+          const Index kg = galerkin->find(i, cols[k]);
+          const Mat3 gk = kg >= 0 ? galerkin->block(kg) : Mat3::Zero();
+          L.delta_h.block(k) = gk - L.delta_h.block(k);
+        }
+      h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0, &L.delta_h);
+    } else {
+      h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0);
+    }
     c.start_energy = &f0;
     c.start_gradient = restricted;
     c.rel_grad = 0.0;
@@ -246,7 +269,17 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, double par
     L.S->apply_transpose(L.tr->gradient(), gc);
     L.project(x, xc0);
     VecX xc = xc0;
-    const CycleResult rc = visit(l - 1, xc, &gc, radius, base);
+    const linalg::BlockMatrix3* coarse_galerkin = nullptr;
+    if (m_params.coarse_model == "second_order") {
+      h->hessian(x, L.model_hessian);
+      ++C.hessian_assemblies;
+      if (!L.hessian_rap)
+        L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, L.S->num_coarse, L.S->offsets,
+                                                                 L.S->indices, L.S->weights);
+      L.hessian_rap->compute(L.model_hessian, L.galerkin);
+      coarse_galerkin = &L.galerkin;
+    }
+    const CycleResult rc = visit(l - 1, xc, &gc, coarse_galerkin, radius, base);
     RmtrCorrection corr;
     corr.level = l;
     corr.coarse_reduction = rc.h_start - rc.h_end;
@@ -386,7 +419,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     previous = x;
     const double f_before = m_finest_energy;
     m_finest_stalled = false;
-    visit(static_cast<int>(m_levels.size()) - 1, x, nullptr, kInf, base);
+    visit(static_cast<int>(m_levels.size()) - 1, x, nullptr, nullptr, kInf, base);
     gnorm = F.tr->gradient().norm();
     check_finite(m_name, m_finest_energy, gnorm, cycle + 1);
     last_df = std::abs(f_before - m_finest_energy);

@@ -34,6 +34,10 @@ struct RmtrParams {
   /// D from the Hessian at the start of each solve: Jacobi-preconditioned ST-CG smoothing and the trust region
   /// ‖s‖_D ≤ Δ; the coarse norms follow as Iᵀ D I).
   std::string scaling = "none";
+  /// Coarse models: "first_order" (eq. 4.3, the paper) or "second_order" (beyond the paper: also the curvature
+  /// term ½ (x − x₀)ᵀ (Sᵀ H S − ∇²f_l(x₀)) (x − x₀), so the coarse Hessian at x₀ is the Galerkin product of the fine
+  /// one; costs one more Hessian assembly per level and visit).
+  std::string coarse_model = "first_order";
   /// Gradient tolerance ε_g^l of the coarse levels (Alg. 4.2, line 13), absolute; 0: the finest level's target.
   double coarse_abs_grad = 0.0;
 };
@@ -110,7 +114,9 @@ class Rmtr final : public NonlinearSolver {
   void scale_finest(const VecX& x);
   /// One visit of level l (Alg. 4.2, lines 1-22) from x (updated). l < finest: `restricted` is R ∇h_{l+1} at the
   /// parent's iterate and `parent_radius` its Δ^{l+1}_{μ1}.
-  CycleResult visit(int l, VecX& x, const VecX* restricted, double parent_radius, const LocalTrControl& base);
+  /// `galerkin`: Sᵀ ∇²h_{l+1} S for a second-order coarse model (null: first order, eq. 4.3).
+  CycleResult visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin, double parent_radius,
+                    const LocalTrControl& base);
   void accumulate();
 
   RmtrParams m_params;

@@ -13,14 +13,37 @@ LevelModel::LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0
                 f.num_dofs());
 }
 
+LevelModel::LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0, const linalg::BlockMatrix3* delta_h)
+    : LevelModel(f, std::move(delta_g), x0) {
+  m_delta_h = delta_h;
+  if (m_delta_h) {
+    if (3 * m_delta_h->rows() != x0.size())
+      throw_error("LevelModel: δH has {} rows of blocks, x₀ {} entries", m_delta_h->rows(), x0.size());
+    m_x0 = x0;
+  }
+}
+
 double LevelModel::value(const VecX& x) const {
-  const double e = m_f->value(x);
-  return has_linear_term() ? e + m_delta_g.dot(x) + m_offset : e;
+  double e = m_f->value(x);
+  if (has_linear_term()) e += m_delta_g.dot(x) + m_offset;
+  if (m_delta_h) {
+    const VecX d = x - m_x0;
+    e += 0.5 * d.dot(*m_delta_h * d);
+  }
+  return e;
 }
 
 void LevelModel::gradient(const VecX& x, VecX& g) const {
   m_f->gradient(x, g);
   if (has_linear_term()) g += m_delta_g;
+  if (m_delta_h) g += *m_delta_h * VecX(x - m_x0);
+}
+
+void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H) const {
+  m_f->hessian(x, H, /*project_psd=*/false);
+  if (!m_delta_h) return;
+  if (!H.same_pattern(*m_delta_h)) throw_error("LevelModel: δH does not have the pattern of the objective's Hessian");
+  for (Index k = 0; k < H.num_blocks(); ++k) H.block(k) += m_delta_h->block(k);
 }
 
 namespace {
@@ -43,6 +66,7 @@ void LocalTrustRegion::reset() {
 linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric) {
   ++m_counters.qp_calls;
   if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
+  if (m_params.qp == TrQp::GaussSeidel) return linalg::gauss_seidel_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_gs, metric);
   const double tol = m_params.stcg_rel_tol > 0.0
                          ? m_params.stcg_rel_tol
                          : std::min(0.5, std::sqrt(m_g.norm() / std::max(initial_grad_norm, 1e-300)));
@@ -102,6 +126,14 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         }
         m_counters.factorizations += m_dogleg.factorizations() - before;
         m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
+      }
+      if (p.qp == TrQp::GaussSeidel) {
+        if (!m_gs) m_gs = std::make_unique<linalg::MultiColorGaussSeidel>(m_hessian);
+        try {
+          m_gs->set_matrix(m_hessian);
+        } catch (const SolveError& e) {
+          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+        }
       }
       have_hessian = true;
     }

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/core/timer.hpp>
+#include <mgcloth/linalg/gauss_seidel.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
@@ -10,7 +11,8 @@
 namespace mgcloth::solvers {
 
 /// Subproblem solver of each trust-region iteration (Kopaničáková 2019, §7.3).
-enum class TrQp { Dogleg, SteihaugCg };
+/// GaussSeidel: a smoothing step (linalg::gauss_seidel_step), for RMTR's smoothers (beyond the paper).
+enum class TrQp { Dogleg, SteihaugCg, GaussSeidel };
 
 /// Trust-region constants (Kopaničáková 2019, Table 2) and stopping rules (§7.2, criterion 7.1).
 struct TrustRegionParams {
@@ -25,6 +27,7 @@ struct TrustRegionParams {
   /// CG stops at ‖r‖ ≤ tol·‖g‖; 0: the forcing term min(0.5, √(‖g‖/‖g₀‖)) of the run's start g₀, which keeps
   /// Newton's superlinear convergence near the minimizer (Nocedal-Wright Thm. 7.2) without solving far from it.
   double stcg_rel_tol = 0.0;
+  int gs_sweeps = 2;  ///< symmetric Gauss-Seidel sweeps per subproblem (TrQp::GaussSeidel)
   /// Criterion (7.1), second part: once Δ > stagnation_delta (the method has become Newton's), the solve stops as
   /// "stalled" when the last iteration changed the energy or the iterate by less than stagnation_tol (absolute),
   /// the limiting accuracy of the ill-conditioned problem. A rejected step changes neither, so it stops too.
@@ -45,16 +48,23 @@ class LevelModel {
   explicit LevelModel(const physics::Objective& f) : m_f(&f) {}
   LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0);
 
+  /// Also second-order consistent (beyond the paper): h(x) = f(x) + ⟨δg, x − x₀⟩ + ½ (x − x₀)ᵀ δH (x − x₀), so that
+  /// ∇²h(x₀) = ∇²f(x₀) + δH is a given matrix (the Galerkin Sᵀ H S of the fine Hessian). δH must have the pattern
+  /// of f's Hessian and outlive the model.
+  LevelModel(const physics::Objective& f, VecX delta_g, const VecX& x0, const linalg::BlockMatrix3* delta_h);
+
   const physics::Objective& objective() const { return *m_f; }
   bool has_linear_term() const { return m_delta_g.size() > 0; }
   double value(const VecX& x) const;
   void gradient(const VecX& x, VecX& g) const;
-  void hessian(const VecX& x, linalg::BlockMatrix3& H) const { m_f->hessian(x, H, /*project_psd=*/false); }
+  void hessian(const VecX& x, linalg::BlockMatrix3& H) const;
 
  private:
   const physics::Objective* m_f;
   VecX m_delta_g;
   double m_offset = 0.0;  ///< −⟨δg, x₀⟩
+  const linalg::BlockMatrix3* m_delta_h = nullptr;
+  VecX m_x0;
 };
 
 /// Work done by Local_TR; derivatives are assembled only at accepted points (Table 6's count).
@@ -146,6 +156,7 @@ class LocalTrustRegion {
   TrustRegionParams m_params;
   std::string m_name;
   linalg::Dogleg m_dogleg;
+  std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
   linalg::BlockMatrix3 m_hessian;
   VecX m_g, m_g_trial, m_trial;
   TrCounters m_counters;
