@@ -61,6 +61,12 @@ struct ShellArgs {
   bool quiet = false;
 } g_shell;
 
+struct ProjectionArgs {
+  std::string scene, out;
+  int level = 0;
+  bool quiet = false;
+} g_proj;
+
 struct ProcessResult {
   bool started = false;
   int code = -1;
@@ -344,6 +350,27 @@ int run_shells_command() {
   return 0;
 }
 
+int run_projections_command() {
+  check_scene_file(g_proj.scene);
+  sim::Scene scene = sim::load_scene(g_proj.scene);
+  if (scene.shells.empty()) throw InputError(fmt::format("{}: the scene has no shells", g_proj.scene));
+  if (g_proj.level > 0) scene.shells.front().level = g_proj.level;
+  const fs::path out = g_proj.out;
+  prepare_out_dir(out);
+  set_log_level(g_proj.quiet);
+  const auto rows = sim::run_projection_bench(scene);
+  write_file_atomic(out / "projections.csv", sim::projection_bench_csv(rows));
+  std::string table = fmt::format("{:<20} {:>5} {:>7} {:>7} {:>10} {:>10} {:>12} {:>9} {:>10}\n", "operator", "level",
+                                  "fine", "coarse", "build_ms", "apply_ms", "bytes", "entries", "|PSq-q|");
+  for (const auto& r : rows)
+    table += fmt::format("{:<20} {:>5} {:>7} {:>7} {:>10.3f} {:>10.4f} {:>12} {:>9} {:>10.2e}\n", r.operator_name,
+                         r.fine_level, r.fine_dofs, r.coarse_dofs, r.build_ms, r.apply_ms, r.memory_bytes, r.entries,
+                         r.exactness);
+  std::fputs(table.c_str(), stdout);
+  std::printf("wrote %s: projections.csv\n", out.string().c_str());
+  return 0;
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
@@ -391,12 +418,20 @@ void add_bench_command(CLI::App& app) {
   sh->add_option("--max-seconds", g_shell.max_seconds, "Wall-time cap per solve, seconds");
   sh->add_option("--threads,-j", g_shell.threads, "Worker threads (default: all cores)");
   sh->add_flag("--quiet,-q", g_shell.quiet, "No progress log");
+
+  auto* pj = bench->add_subcommand(
+      "projections", "Build time, memory and exactness of reverse subdivision vs least squares per level (Kopanicakova 2019, Table 8)");
+  pj->add_option("scene", g_proj.scene, "Shell scene file (JSON); its first shell")->required();
+  pj->add_option("--level", g_proj.level, "Subdivision level (default: the scene's)")->check(CLI::Range(1, 9));
+  pj->add_option("--out,-o", g_proj.out, "Output folder (created if missing)")->required();
+  pj->add_flag("--quiet,-q", g_proj.quiet, "No progress log");
 }
 
 int run_bench_command(CLI::App& bench) {
   if (bench.got_subcommand("convergence")) return run_convergence_command();
   if (bench.got_subcommand("scalability")) return run_scalability_command();
   if (bench.got_subcommand("shells")) return run_shells_command();
+  if (bench.got_subcommand("projections")) return run_projections_command();
   return 1;
 }
 

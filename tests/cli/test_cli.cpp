@@ -456,3 +456,40 @@ TEST_F(Cli, ShellSceneRunsWritesProbesAndResumes) {
   r = run(fmt::format("run {} --level 12", scene));
   EXPECT_NE(r.code, 0);
 }
+
+// RMTR runs a shell scene from the command line, and the projections benchmark reports both operators per level.
+TEST_F(Cli, RmtrRunsAShellSceneAndProjectionsBenchReportsBothOperators) {
+  const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_trampoline.json";
+  // The solver block of the scene file sets RMTR's parameters (a smoother strong enough for a quick test).
+  mgcloth::Json j = mgcloth::Json::parse(mgcloth::read_file(scene));
+  j["solver"] = {{"name", "rmtr"}, {"rel_grad", 0}, {"abs_grad", 1e-7}, {"max_iters", 300},
+                 {"params", {{"scaling", "jacobi"}, {"smoother_cg_iters", 100}, {"projection", "least_squares"}}}};
+  j["shells"][0]["level"] = 2;
+  const fs::path rmtr_scene = dir / "rmtr.json";
+  mgcloth::write_file_atomic(rmtr_scene, j.dump(2));
+  Result r = run(fmt::format("run {} --frames 1 -q -o {}", rmtr_scene.string(), (dir / "rmtr").string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string stats = mgcloth::read_file(dir / "rmtr" / "stats.csv");
+  EXPECT_NE(stats.find(",rmtr,"), std::string::npos) << stats;
+  EXPECT_NE(stats.find(",converged,"), std::string::npos) << stats;
+  const std::string resolved = mgcloth::read_file(dir / "rmtr" / "scene.resolved.json");
+  EXPECT_NE(resolved.find("\"smoother_cg_iters\": 100"), std::string::npos);
+  EXPECT_NE(resolved.find("\"coarse_model\": \"first_order\""), std::string::npos);
+  r = run(fmt::format("run {} --level 1 --frames 1 --solver rmtr -q -o {}", scene, (dir / "rmtr1").string()));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("needs at least two levels"), std::string::npos) << r.out;
+
+  r = run(fmt::format("bench projections {} --level 3 -q -o {}", scene, (dir / "proj").string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(dir / "proj" / "projections.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "operator,fine_level,fine_dofs,coarse_dofs,build_ms,apply_ms,memory_bytes,entries,exactness");
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    ++rows;
+    const double exactness = std::stod(line.substr(line.rfind(',') + 1));
+    EXPECT_LT(exactness, 1e-12) << line;
+  }
+  EXPECT_EQ(rows, 4);  // two level pairs, two operators each
+}

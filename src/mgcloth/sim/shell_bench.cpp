@@ -4,6 +4,8 @@
 #include <mgcloth/sim/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <random>
+
 namespace mgcloth::sim {
 
 namespace {
@@ -110,6 +112,72 @@ Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOp
                             {"wall_s", r.wall_s}, {"counters", c}});
   }
   return j;
+}
+
+std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene) {
+  if (scene.shells.empty()) throw_input_error("{}: the scene has no shells", scene.file);
+  const ShellBody body(scene.shells.front(), scene.gravity, scene.file);
+  const hierarchy::SubdivisionHierarchy& h = body.hierarchy();
+  std::vector<ProjectionBenchRow> rows;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> normal;
+  for (int l = 0; l + 1 < h.num_levels(); ++l) {
+    const hierarchy::TransferTable& S = h.subdivision(l);
+    std::vector<VecX> q(3);
+    for (auto& v : q) {
+      v.resize(3 * S.num_coarse);
+      for (Index i = 0; i < v.size(); ++i) v[i] = normal(rng);
+    }
+    const auto measure = [&](ProjectionBenchRow row, const auto& apply) {
+      row.fine_level = l + 2;
+      row.fine_dofs = 3 * S.num_fine;
+      row.coarse_dofs = 3 * S.num_coarse;
+      VecX fine, back;
+      for (const VecX& v : q) {
+        S.apply(v, fine);
+        apply(fine, back);
+        row.exactness = std::max(row.exactness, (back - v).norm() / v.norm());
+      }
+      const int reps = std::max(3, static_cast<int>(2'000'000 / std::max<Index>(1, S.num_fine)));
+      Timer t;
+      for (int k = 0; k < reps; ++k) apply(fine, back);
+      row.apply_ms = t.ms() / reps;
+      rows.push_back(row);
+    };
+    {
+      ProjectionBenchRow row;
+      row.operator_name = "reverse_subdivision";
+      Timer t;
+      try {
+        const hierarchy::ProjectionTable Q = hierarchy::reverse_subdivision(h.mesh(l), h.step(l));
+        row.build_ms = t.ms();
+        row.memory_bytes = Q.memory_bytes();
+        row.entries = Q.num_entries();
+        measure(row, [&](const VecX& f, VecX& c) { Q.apply(f, c); });
+      } catch (const Error& e) {
+        logger().info("level {}: no reverse subdivision: {}", l + 2, e.what());
+      }
+    }
+    {
+      ProjectionBenchRow row;
+      row.operator_name = "least_squares";
+      Timer t;
+      const hierarchy::LeastSquaresProjection P(S);
+      row.build_ms = t.ms();
+      row.memory_bytes = P.memory_bytes();
+      row.entries = P.factor_nonzeros();
+      measure(row, [&](const VecX& f, VecX& c) { P.apply(f, c); });
+    }
+  }
+  return rows;
+}
+
+std::string projection_bench_csv(const std::vector<ProjectionBenchRow>& rows) {
+  std::string out = "operator,fine_level,fine_dofs,coarse_dofs,build_ms,apply_ms,memory_bytes,entries,exactness\n";
+  for (const auto& r : rows)
+    out += fmt::format("{},{},{},{},{:.4f},{:.5f},{},{},{:.3e}\n", r.operator_name, r.fine_level, r.fine_dofs,
+                       r.coarse_dofs, r.build_ms, r.apply_ms, r.memory_bytes, r.entries, r.exactness);
+  return out;
 }
 
 }  // namespace mgcloth::sim

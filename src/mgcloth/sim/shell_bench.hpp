@@ -42,4 +42,21 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
 std::string shell_bench_csv(const std::vector<ShellBenchRow>& rows);
 Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOptions& options);
 
+/// Building and applying the two projections of iterates between consecutive levels of a shell's hierarchy
+/// (Kopaničáková 2019 §5.3.2, Table 8's "time and memory of building each operator").
+struct ProjectionBenchRow {
+  std::string operator_name;  ///< "reverse_subdivision" or "least_squares"
+  int fine_level = 0;         ///< the paper's numbering: levels 1..L, the projection maps fine_level to fine_level − 1
+  Index fine_dofs = 0, coarse_dofs = 0;
+  double build_ms = 0.0;
+  double apply_ms = 0.0;      ///< one application to an xyz vector, averaged
+  std::size_t memory_bytes = 0;
+  Index entries = 0;          ///< nonzeros stored (Q's table; the Cholesky factor of SᵀS)
+  double exactness = 0.0;     ///< max over random coarse q of ‖P S q − q‖ / ‖q‖ (0 in exact arithmetic)
+};
+/// Every level pair of the scene's first shell at its level.
+std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene);
+/// operator,fine_level,fine_dofs,coarse_dofs,build_ms,apply_ms,memory_bytes,entries,exactness
+std::string projection_bench_csv(const std::vector<ProjectionBenchRow>& rows);
+
 }  // namespace mgcloth::sim
