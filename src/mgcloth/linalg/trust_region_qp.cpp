@@ -1,5 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
+#include <mgcloth/linalg/patch_smoother.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
 
 #include <algorithm>
@@ -106,18 +107,18 @@ QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const 
   return r;
 }
 
-QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps,
-                           const MultiColorGaussSeidel& gs, const NormMetric* metric) {
-  check_metric(metric, static_cast<Index>(g.size()), "gauss_seidel_step");
+namespace {
+/// The model's minimizer along a smoother's direction d inside the ball, or the Cauchy point where d is no descent
+/// direction or decreases the model less (SDC).
+QpResult along_direction(const BlockMatrix3& H, const VecX& g, const VecX& d, double delta, int sweeps,
+                         const NormMetric* metric) {
   QpResult cauchy = cauchy_point(H, g, delta, metric);
-  if (g.norm() == 0.0) return cauchy;
-  VecX d = VecX::Zero(g.size());
-  gs.symmetric_sweeps(-g, d, std::max(1, sweeps));
+  cauchy.iterations = sweeps;
   const double gd = g.dot(d);
   const double dHd = d.dot(H * d);
   const double dn = metric ? metric->norm(d) : d.norm();
   if (!(gd < 0.0) || !std::isfinite(dHd) || !(dn > 0.0)) return cauchy;
-  // The model along d, m(τd) = τ gᵀd + ½ τ² dᵀHd, minimized over 0 < τ ≤ Δ/‖d‖.
+  // m(τd) = τ gᵀd + ½ τ² dᵀHd, minimized over 0 < τ ≤ Δ/‖d‖.
   const double tmax = delta / dn;
   const double t = dHd > 0.0 ? std::min(tmax, -gd / dHd) : tmax;
   QpResult r;
@@ -126,11 +127,26 @@ QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, i
   r.model_decrease = model_decrease(H, g, r.s);
   r.iterations = sweeps;
   r.reason = t >= tmax * (1.0 - 1e-12) ? QpStop::Boundary : QpStop::Converged;
-  if (!(r.model_decrease >= cauchy.model_decrease)) {
-    cauchy.iterations = sweeps;
-    return cauchy;
-  }
-  return r;
+  return r.model_decrease >= cauchy.model_decrease ? r : cauchy;
+}
+}  // namespace
+
+QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps,
+                           const MultiColorGaussSeidel& gs, const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "gauss_seidel_step");
+  if (g.norm() == 0.0) return cauchy_point(H, g, delta, metric);
+  VecX d = VecX::Zero(g.size());
+  gs.symmetric_sweeps(-g, d, std::max(1, sweeps));
+  return along_direction(H, g, d, delta, sweeps, metric);
+}
+
+QpResult patch_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps, const PatchSmoother& patches,
+                    const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "patch_step");
+  if (g.norm() == 0.0) return cauchy_point(H, g, delta, metric);
+  VecX d = VecX::Zero(g.size());
+  patches.symmetric_sweeps(-g, d, std::max(1, sweeps));
+  return along_direction(H, g, d, delta, sweeps, metric);
 }
 
 QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,

@@ -89,6 +89,9 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
 /// the sweeps.
 QpResult gauss_seidel_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps,
                            const class MultiColorGaussSeidel& gs, const NormMetric* metric = nullptr);
+/// The same with `sweeps` symmetric multiplicative Schwarz sweeps over overlapping patches (PatchSmoother).
+QpResult patch_step(const BlockMatrix3& H, const VecX& g, double delta, int sweeps, const class PatchSmoother& patches,
+                    const NormMetric* metric = nullptr);
 
 /// What a shifted Cholesky factorization needed.
 struct ShiftedFactorization {

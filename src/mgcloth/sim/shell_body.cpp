@@ -120,6 +120,26 @@ const hierarchy::LeastSquaresProjection& ShellBody::least_squares(int level) {
   return *p;
 }
 
+const std::vector<std::vector<Index>>& ShellBody::patches(int level) {
+  if (level < 0 || level >= num_levels())
+    throw_error("shell \"{}\": level {} out of range (the hierarchy has {})", name(), level, num_levels());
+  if (m_patches.size() != static_cast<size_t>(num_levels())) m_patches.resize(static_cast<size_t>(num_levels()));
+  auto& out = m_patches[static_cast<size_t>(level)];
+  if (out.empty()) {
+    const mesh::QuadMesh& m = m_hierarchy.mesh(level);
+    out.assign(static_cast<size_t>(m.num_vertices()), {});
+    for (const auto& q : m.quads)
+      for (Index v : q) out[static_cast<size_t>(v)].insert(out[static_cast<size_t>(v)].end(), q.begin(), q.end());
+    for (Index v = 0; v < m.num_vertices(); ++v) {
+      auto& p = out[static_cast<size_t>(v)];
+      p.push_back(v);
+      std::sort(p.begin(), p.end());
+      p.erase(std::unique(p.begin(), p.end()), p.end());
+    }
+  }
+  return out;
+}
+
 void ShellBody::project(int level, const VecX& fine, VecX& coarse) {
   if (const auto* q = reverse_subdivision(level)) {
     q->apply(fine, coarse);

@@ -63,6 +63,8 @@ class ShellBody {
   const hierarchy::ProjectionTable* reverse_subdivision(int level);
   /// The least-squares projection of eq. 5.18 from `level` + 1 to `level`, built on first use.
   const hierarchy::LeastSquaresProjection& least_squares(int level);
+  /// Smoothing patches of `level`: every control point with its one-ring (the points of the faces around it).
+  const std::vector<std::vector<Index>>& patches(int level);
   /// Projects an iterate of `level` + 1 to `level`: reverse subdivision where it exists, least squares otherwise.
   void project(int level, const VecX& fine, VecX& coarse);
 
@@ -118,6 +120,7 @@ class ShellBody {
   std::vector<std::unique_ptr<hierarchy::ProjectionTable>> m_reverse;
   std::vector<char> m_reverse_tried;
   std::vector<std::unique_ptr<hierarchy::LeastSquaresProjection>> m_lsq;
+  std::vector<std::vector<std::vector<Index>>> m_patches;
   /// The last prepare_step()'s arguments, so that levels built later join the current step.
   double m_t_next = 0.0, m_step_h = 0.0, m_load_factor = 0.0;
   bool m_prepared = false;

@@ -48,6 +48,8 @@ solvers::Problem Simulator::prepare_shell_problem(size_t s, VecX& x0, double* lo
   if (m_shell_solvers[s]->needs_level_objectives() || m_shell_solvers[s]->needs_hierarchy()) {
     // Problem levels are finest first: problem level k is hierarchy level L - 1 - k.
     const int L = body.num_levels();
+    if (m_shell_solvers[s]->needs_level_objectives())
+      for (int k = 0; k < L; ++k) problem.patches.push_back(&body.patches(L - 1 - k));
     for (int k = 1; k < L; ++k) {
       const int level = L - 1 - k;
       problem.prolongations.push_back(&body.hierarchy().subdivision(level));

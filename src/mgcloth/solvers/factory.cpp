@@ -151,6 +151,10 @@ Json write_trust_region(const TrustRegionParams& p) {
   return j;
 }
 
+std::string qp_name(TrQp q) {
+  return q == TrQp::Dogleg ? "dogleg" : q == TrQp::GaussSeidel ? "gauss_seidel" : q == TrQp::Schwarz ? "schwarz" : "stcg";
+}
+
 RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.tr = read_trust_region(r, p.tr);
   p.pre_smoothing = r.integer("pre_smoothing", p.pre_smoothing, 0, 1000);
@@ -160,15 +164,16 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.eps_delta = r.number("eps_delta", p.eps_delta, 0.0, 1.0);
   if (!(p.eps_delta > 0.0 && p.eps_delta < 1.0)) r.fail("eps_delta", "must lie in (0, 1)");
   p.smoother_cg_iters = r.integer("smoother_cg_iters", p.smoother_cg_iters, 1, 1'000'000);
-  const auto qp = [](TrQp q) {
-    return std::string(q == TrQp::Dogleg ? "dogleg" : q == TrQp::GaussSeidel ? "gauss_seidel" : "stcg");
-  };
+
   const auto parse_qp = [](const std::string& s) {
-    return s == "dogleg" ? TrQp::Dogleg : s == "gauss_seidel" ? TrQp::GaussSeidel : TrQp::SteihaugCg;
+    return s == "dogleg"         ? TrQp::Dogleg
+           : s == "gauss_seidel" ? TrQp::GaussSeidel
+           : s == "schwarz"      ? TrQp::Schwarz
+                                 : TrQp::SteihaugCg;
   };
-  p.smoother_qp = parse_qp(r.choice("smoother", qp(p.smoother_qp), {"stcg", "dogleg", "gauss_seidel"}));
+  p.smoother_qp = parse_qp(r.choice("smoother", qp_name(p.smoother_qp), {"stcg", "dogleg", "gauss_seidel", "schwarz"}));
   p.tr.gs_sweeps = r.integer("smoother_sweeps", p.tr.gs_sweeps, 1, 1000);
-  p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp(p.coarsest_qp), {"dogleg", "stcg"}));
+  p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp_name(p.coarsest_qp), {"dogleg", "stcg"}));
   p.levels = r.integer("levels", p.levels, 0, 20);
   if (p.levels == 1) r.fail("levels", "RMTR needs at least 2 levels (0: all of the hierarchy); use tr-dogleg for one");
   p.projection = r.choice("projection", p.projection, {"reverse_subdivision", "least_squares"});
@@ -187,9 +192,9 @@ Json write_rmtr(const RmtrParams& p) {
   j["coarsest_iters"] = p.coarsest_iters;
   j["eps_delta"] = p.eps_delta;
   j["smoother_cg_iters"] = p.smoother_cg_iters;
-  j["smoother"] = p.smoother_qp == TrQp::Dogleg ? "dogleg" : p.smoother_qp == TrQp::GaussSeidel ? "gauss_seidel" : "stcg";
+  j["smoother"] = qp_name(p.smoother_qp);
   j["smoother_sweeps"] = p.tr.gs_sweeps;
-  j["coarsest_qp"] = p.coarsest_qp == TrQp::Dogleg ? "dogleg" : "stcg";
+  j["coarsest_qp"] = qp_name(p.coarsest_qp);
   j["levels"] = p.levels;
   j["projection"] = p.projection;
   j["level_norms"] = p.level_norms;

@@ -33,6 +33,9 @@ struct Problem {
   using Projection = std::function<void(const VecX& fine, VecX& coarse)>;
   std::vector<Projection> projections;
   std::vector<Projection> lsq_projections;
+  /// Smoothing patches per level (level 0 = the objective's), e.g. every control point with its one-ring, for
+  /// patch (Schwarz) smoothers; empty when the discretization provides none.
+  std::vector<const std::vector<std::vector<Index>>*> patches;
 };
 
 struct Stop {

@@ -105,6 +105,11 @@ void Rmtr::setup(const Problem& problem) {
       }
     }
     lv->tr = std::make_unique<LocalTrustRegion>(tp, fmt::format("{} level {}", m_name, k));
+    if (tp.qp == TrQp::Schwarz) {
+      if (problem.patches.size() <= k || !problem.patches[k])
+        throw Error(fmt::format("{}: the Schwarz smoother needs patches, which the problem does not provide", m_name));
+      lv->tr->set_patches(*problem.patches[k]);
+    }
     m_levels[i] = std::move(lv);
   }
   // Eq. 4.9: ‖s‖_l = ‖I_{L-1}^L ⋯ I_l^{l+1} s‖₂, i.e. M_l = S_{l+1}ᵀ M_{l+1} S_{l+1} from M_L = I; built once per

@@ -58,6 +58,10 @@ double radius_update(const TrustRegionParams& p, double rho, double radius) {
 LocalTrustRegion::LocalTrustRegion(TrustRegionParams params, std::string name)
     : m_params(std::move(params)), m_name(std::move(name)) {}
 
+void LocalTrustRegion::set_patches(std::vector<std::vector<Index>> patches) {
+  m_patches = std::make_unique<linalg::PatchSmoother>(std::move(patches));
+}
+
 void LocalTrustRegion::reset() {
   m_counters = {};
   m_history.clear();
@@ -67,6 +71,7 @@ linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_n
   ++m_counters.qp_calls;
   if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
   if (m_params.qp == TrQp::GaussSeidel) return linalg::gauss_seidel_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_gs, metric);
+  if (m_params.qp == TrQp::Schwarz) return linalg::patch_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_patches, metric);
   const double tol = m_params.stcg_rel_tol > 0.0
                          ? m_params.stcg_rel_tol
                          : std::min(0.5, std::sqrt(m_g.norm() / std::max(initial_grad_norm, 1e-300)));
@@ -126,6 +131,10 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         }
         m_counters.factorizations += m_dogleg.factorizations() - before;
         m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
+      }
+      if (p.qp == TrQp::Schwarz) {
+        if (!m_patches) throw Error(fmt::format("{}: the Schwarz smoother has no patches", m_name));
+        m_patches->set_matrix(m_hessian);
       }
       if (p.qp == TrQp::GaussSeidel) {
         if (!m_gs) m_gs = std::make_unique<linalg::MultiColorGaussSeidel>(m_hessian);

@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
+#include <mgcloth/linalg/patch_smoother.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
@@ -12,7 +13,8 @@ namespace mgcloth::solvers {
 
 /// Subproblem solver of each trust-region iteration (Kopaničáková 2019, §7.3).
 /// GaussSeidel: a smoothing step (linalg::gauss_seidel_step), for RMTR's smoothers (beyond the paper).
-enum class TrQp { Dogleg, SteihaugCg, GaussSeidel };
+/// Schwarz: the same with overlapping patches (linalg::patch_step; needs LocalTrustRegion::set_patches()).
+enum class TrQp { Dogleg, SteihaugCg, GaussSeidel, Schwarz };
 
 /// Trust-region constants (Kopaničáková 2019, Table 2) and stopping rules (§7.2, criterion 7.1).
 struct TrustRegionParams {
@@ -27,7 +29,7 @@ struct TrustRegionParams {
   /// CG stops at ‖r‖ ≤ tol·‖g‖; 0: the forcing term min(0.5, √(‖g‖/‖g₀‖)) of the run's start g₀, which keeps
   /// Newton's superlinear convergence near the minimizer (Nocedal-Wright Thm. 7.2) without solving far from it.
   double stcg_rel_tol = 0.0;
-  int gs_sweeps = 2;  ///< symmetric Gauss-Seidel sweeps per subproblem (TrQp::GaussSeidel)
+  int gs_sweeps = 2;  ///< symmetric Gauss-Seidel or Schwarz sweeps per subproblem (TrQp::GaussSeidel, Schwarz)
   /// Criterion (7.1), second part: once Δ > stagnation_delta (the method has become Newton's), the solve stops as
   /// "stalled" when the last iteration changed the energy or the iterate by less than stagnation_tol (absolute),
   /// the limiting accuracy of the ill-conditioned problem. A rejected step changes neither, so it stops too.
@@ -148,6 +150,8 @@ class LocalTrustRegion {
   const TrCounters& counters() const { return m_counters; }
   const std::vector<TrIteration>& history() const { return m_history; }
   void reset();
+  /// The patches of TrQp::Schwarz (e.g. every control point with its one-ring).
+  void set_patches(std::vector<std::vector<Index>> patches);
 
  private:
   /// Solves subproblem (4.1) at the current point with radius Δ in the norm of `metric` (ℓ2 when null).
@@ -157,6 +161,7 @@ class LocalTrustRegion {
   std::string m_name;
   linalg::Dogleg m_dogleg;
   std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
+  std::unique_ptr<linalg::PatchSmoother> m_patches;
   linalg::BlockMatrix3 m_hessian;
   VecX m_g, m_g_trial, m_trial;
   TrCounters m_counters;
