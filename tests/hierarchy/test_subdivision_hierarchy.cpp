@@ -1,6 +1,7 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/hierarchy/subdivision_hierarchy.hpp>
 #include <mgcloth/mesh/opensubdiv.hpp>
+#include "quad_fixtures.hpp"
 
 #include <opensubdiv/far/primvarRefiner.h>
 #include <gtest/gtest.h>
@@ -23,31 +24,9 @@ struct Point {
   }
 };
 
-/// Five quads around a point of valence 5 (an extraordinary interior vertex), with boundary points of valence 3
-/// and corners of valence 2.
-QuadMesh pentagon_fan() {
-  QuadMesh m;
-  m.x.setZero(3, 11);
-  m.u.setZero(2, 11);
-  for (int i = 0; i < 5; ++i) {
-    const double a = 2.0 * M_PI * i / 5.0, b = a + M_PI / 5.0;
-    m.u.col(1 + i) = Vec2(std::cos(a), std::sin(a));
-    m.u.col(6 + i) = 1.4 * Vec2(std::cos(b), std::sin(b));
-  }
-  m.x.topRows(2) = m.u;
-  for (int i = 0; i < 5; ++i) m.quads.push_back({0, 1 + i, 6 + i, 1 + (i + 1) % 5});
-  return m;
-}
-
-/// The surface of a cube: eight points of valence 3, closed (no boundary).
-QuadMesh cube() {
-  QuadMesh m;
-  m.x.resize(3, 8);
-  for (int i = 0; i < 8; ++i) m.x.col(i) = Vec3(i & 1, (i >> 1) & 1, (i >> 2) & 1);
-  m.u = m.x.topRows(2);
-  m.quads = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-  return m;
-}
+using fixtures::cube;
+/// Five quads around a point of valence 5 (an extraordinary interior vertex).
+QuadMesh pentagon_fan() { return fixtures::fan(5); }
 
 /// S q against OpenSubdiv's own refinement of the same mesh, for random q: every kept fine point is found as the
 /// child of its parent vertex, edge or face in OpenSubdiv's level 1.
