@@ -81,10 +81,11 @@ solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
         for (size_t i = 0; i < inj->size(); ++i) coarse.segment<3>(3 * static_cast<Index>(i)) = fine.segment<3>(3 * (*inj)[i]);
       });
       const hierarchy::TransferTable* P = problem.prolongations[l];
-      auto lsq = std::make_shared<std::unique_ptr<hierarchy::LeastSquaresProjection>>();
-      problem.lsq_projections.push_back([P, lsq](const VecX& fine, VecX& coarse) {
-        if (!*lsq) *lsq = std::make_unique<hierarchy::LeastSquaresProjection>(*P);
-        (*lsq)->apply(fine, coarse);
+      // Factorized on first use and kept with the simulation (the hierarchy does not change between steps).
+      problem.lsq_projections.push_back([this, P](const VecX& fine, VecX& coarse) {
+        auto& lsq = m_cloth_lsq[P];
+        if (!lsq) lsq = std::make_unique<hierarchy::LeastSquaresProjection>(*P);
+        lsq->apply(fine, coarse);
       });
     }
   }

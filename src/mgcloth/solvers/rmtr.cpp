@@ -36,12 +36,6 @@ Rmtr::Rmtr(RmtrParams params, std::string name) : m_params(std::move(params)), m
 Rmtr::~Rmtr() = default;
 
 namespace {
-/// Alg. 4.3, line 2.
-double radius_update(const TrustRegionParams& p, double rho, double radius) {
-  if (rho < p.eta1) return p.gamma1 * radius;
-  if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
-  return radius;
-}
 
 /// The identity as a block-diagonal matrix: the ℓ2 norm of the finest level, M_L of eq. 4.9.
 linalg::BlockMatrix3 identity_blocks(Index n) {
@@ -97,12 +91,10 @@ void Rmtr::setup(const Problem& problem) {
     }
     TrustRegionParams tp = m_params.tr;
     tp.qp = i == 0 ? m_params.coarsest_qp : m_params.smoother_qp;
-    if (i > 0 || used == 1) {
-      if (tp.qp == TrQp::SteihaugCg) {
-        // A fixed budget of CG iterations (§7.3): the tolerance only stops CG at an exact solve.
-        tp.stcg_max_iters = m_params.smoother_cg_iters;
-        tp.stcg_rel_tol = 1e-12;
-      }
+    if (i > 0 && tp.qp == TrQp::SteihaugCg) {
+      // A fixed budget of CG iterations (§7.3): the tolerance only stops CG at an exact solve.
+      tp.stcg_max_iters = m_params.smoother_cg_iters;
+      tp.stcg_rel_tol = 1e-12;
     }
     lv->tr = std::make_unique<LocalTrustRegion>(tp, fmt::format("{} level {}", m_name, k));
     if (tp.qp == TrQp::Schwarz) {

@@ -46,14 +46,11 @@ void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H) const {
   for (Index k = 0; k < H.num_blocks(); ++k) H.block(k) += m_delta_h->block(k);
 }
 
-namespace {
-/// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
 double radius_update(const TrustRegionParams& p, double rho, double radius) {
   if (rho < p.eta1) return p.gamma1 * radius;
   if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
   return radius;
 }
-}  // namespace
 
 LocalTrustRegion::LocalTrustRegion(TrustRegionParams params, std::string name)
     : m_params(std::move(params)), m_name(std::move(name)) {}

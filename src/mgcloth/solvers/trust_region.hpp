@@ -42,6 +42,9 @@ struct TrustRegionParams {
   double roundoff_tol = 1e-14;
 };
 
+/// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
+double radius_update(const TrustRegionParams& p, double rho, double radius);
+
 /// The objective of one level, h(x) = f(x) + ⟨δg, x − x₀⟩ (Kopaničáková 2019, eq. 4.3): the coupling term
 /// makes the coarse gradient at x₀ equal the restricted fine gradient (eq. 4.5). Without δg, h = f. The Hessian
 /// is always f's exact one (eq. 4.1: H = ∇²f, never PSD-projected). Keeps references: f must outlive it.
