@@ -58,7 +58,7 @@ struct ShellArgs {
   std::string levels = "1,2,3,4", solvers = "tr-dogleg,tr-stcg", out;
   double time_step = 0.0, max_seconds = 0.0;
   int max_iters = 0, threads = 0;
-  bool quiet = false;
+  bool quiet = false, verbose = false;
 } g_shell;
 
 struct ProjectionArgs {
@@ -332,6 +332,7 @@ int run_shells_command() {
   const fs::path out = g_shell.out;
   prepare_out_dir(out);
   set_log_level(g_shell.quiet);
+  if (g_shell.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
   const auto write = [&](const std::vector<sim::ShellBenchRow>& rows) {
     write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
@@ -418,6 +419,7 @@ void add_bench_command(CLI::App& app) {
   sh->add_option("--max-seconds", g_shell.max_seconds, "Wall-time cap per solve, seconds");
   sh->add_option("--threads,-j", g_shell.threads, "Worker threads (default: all cores)");
   sh->add_flag("--quiet,-q", g_shell.quiet, "No progress log");
+  sh->add_flag("--verbose,-v", g_shell.verbose, "Log solver details (every V-cycle and coarse correction)");
 
   auto* pj = bench->add_subcommand(
       "projections", "Build time, memory and exactness of reverse subdivision vs least squares per level (Kopanicakova 2019, Table 8)");

@@ -26,6 +26,17 @@ void PatchSmoother::set_matrix(const BlockMatrix3& A) {
         local.block<3, 3>(3 * a, 3 * (it - p.begin())) = A.block(k);
       }
     }
+    // Most patches are positive definite: a Cholesky factorization is ~10x cheaper than the eigen-decomposition
+    // and gives the same inverse there.
+    Eigen::LLT<MatX> llt(local);
+    const auto pivots = [&] {
+      const VecX d = llt.matrixLLT().diagonal().cwiseAbs2();
+      return d.minCoeff() > 1e-10 * d.maxCoeff();
+    };
+    if (llt.info() == Eigen::Success && pivots()) {
+      m_inverse[static_cast<size_t>(pi)] = llt.solve(MatX::Identity(3 * n, 3 * n));
+      if (m_inverse[static_cast<size_t>(pi)].allFinite()) return;
+    }
     Eigen::SelfAdjointEigenSolver<MatX> eig(local);
     if (eig.info() != Eigen::Success)
       throw SolveError(fmt::format("patch smoother: eigen-decomposition of patch {} failed", pi));

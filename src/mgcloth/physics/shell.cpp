@@ -176,6 +176,7 @@ double ShellTerm::element(Index e, const VecX& x, VecX* g, MatX* H) const {
   Eigen::Matrix<double, 6, 1> s, Ws, gW;
   Mat6 HW, L = Mat6::Zero(), Wss;
   ShellJacobian J;
+  Eigen::Matrix<double, Eigen::Dynamic, 18> R;
   for (Index gp = 0; gp < nq; ++gp) {
     const Reference& r = m_ref[static_cast<size_t>(e) * nq + gp];
     const StencilBlock D(F.basis.data() + static_cast<size_t>(gp) * K * 6, K, 6);
@@ -217,19 +218,27 @@ double ShellTerm::element(Index e, const VecX& x, VecX* g, MatX* H) const {
       gl.noalias() += Eigen::Map<const Eigen::Matrix<double, 3, 6>>(gz.data()) * D.transpose();
     }
     if (H) {
-      Eigen::Matrix<double, 6, 6> M;
-      MatX HK;
-      for (int c = 0; c < 3; ++c)
-        for (int d = 0; d < 3; ++d) {
-          for (int j = 0; j < 6; ++j)
-            for (int l = 0; l < 6; ++l) M(j, l) = Hz(3 * j + c, 3 * l + d);
-          if (M.isZero(0.0)) continue;
-          HK.noalias() = D * M * D.transpose();
-          for (Index a = 0; a < K; ++a)
-            for (Index b = 0; b < K; ++b) (*H)(3 * a + c, 3 * b + d) += HK(a, b);
+      // H += Bᵀ Hz B with B = ∂z/∂q (z_{3j+c} = Σ_a D(a,j) q_{c,a}): first R = Bᵀ Hz by 3x18 row blocks, then the
+      // upper block triangle of R B (Hz is symmetric), mirrored once after the last Gauss point. Fixed-size 3x3
+      // arithmetic: the dynamic products this replaces spent most of their time in small-matrix overhead.
+      R.resize(3 * K, 18);
+      for (Index a = 0; a < K; ++a) {
+        Eigen::Matrix<double, 3, 18> Ra = D(a, 0) * Hz.topRows<3>();
+        for (int j = 1; j < 6; ++j)
+          if (D(a, j) != 0.0) Ra.noalias() += D(a, j) * Hz.middleRows<3>(3 * j);
+        R.middleRows<3>(3 * a) = Ra;
+      }
+      for (Index a = 0; a < K; ++a)
+        for (int l = 0; l < 6; ++l) {
+          const Mat3 Ral = R.block<3, 3>(3 * a, 3 * l);
+          for (Index b = a; b < K; ++b)
+            if (D(b, l) != 0.0) H->block<3, 3>(3 * a, 3 * b).noalias() += D(b, l) * Ral;
         }
     }
   }
+  if (H)
+    for (Index a = 0; a < K; ++a)
+      for (Index b = a + 1; b < K; ++b) H->block<3, 3>(3 * b, 3 * a) = H->block<3, 3>(3 * a, 3 * b).transpose();
   return energy;
 }
 

@@ -181,6 +181,10 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.scaling = r.choice("scaling", p.scaling, {"none", "jacobi", "block_jacobi"});
   p.coarse_model = r.choice("coarse_model", p.coarse_model, {"first_order", "second_order"});
   p.coarse_abs_grad = r.number("coarse_abs_grad", p.coarse_abs_grad, 0.0, kInf);
+  p.initial = r.choice("initial", p.initial, {"fine", "nested"});
+  p.nested_rel_grad = r.number("nested_rel_grad", p.nested_rel_grad, 0.0, 1.0);
+  if (!(p.nested_rel_grad > 0.0 && p.nested_rel_grad < 1.0)) r.fail("nested_rel_grad", "must lie in (0, 1)");
+  p.nested_max_cycles = r.integer("nested_max_cycles", p.nested_max_cycles, 1, 1'000'000);
   return p;
 }
 Json write_rmtr(const RmtrParams& p) {
@@ -201,6 +205,9 @@ Json write_rmtr(const RmtrParams& p) {
   j["scaling"] = p.scaling;
   j["coarse_model"] = p.coarse_model;
   j["coarse_abs_grad"] = p.coarse_abs_grad;
+  j["initial"] = p.initial;
+  j["nested_rel_grad"] = p.nested_rel_grad;
+  j["nested_max_cycles"] = p.nested_max_cycles;
   return j;
 }
 

@@ -28,6 +28,8 @@ Rmtr::Rmtr(RmtrParams params, std::string name) : m_params(std::move(params)), m
     throw_error("{}: coarse_model must be \"first_order\" or \"second_order\" (got \"{}\")", m_name, m_params.coarse_model);
   if (m_params.scaling != "none" && m_params.scaling != "jacobi" && m_params.scaling != "block_jacobi")
     throw_error("{}: scaling must be \"none\", \"jacobi\" or \"block_jacobi\" (got \"{}\")", m_name, m_params.scaling);
+  if (m_params.initial != "fine" && m_params.initial != "nested")
+    throw_error("{}: initial must be \"fine\" or \"nested\" (got \"{}\")", m_name, m_params.initial);
   if (m_params.projection != "reverse_subdivision" && m_params.projection != "least_squares")
     throw_error("{}: projection must be \"reverse_subdivision\" or \"least_squares\" (got \"{}\")", m_name,
                 m_params.projection);
@@ -171,8 +173,9 @@ void Rmtr::scale_finest(const VecX& x) {
 Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin,
                                double parent_radius, const LocalTrControl& base) {
   Level& L = *m_levels[static_cast<size_t>(l)];
-  const int top = static_cast<int>(m_levels.size()) - 1;
-  const bool finest = l == top, coarsest = l == 0;
+  // "finest" is the top of the current V-cycles: the finest level, or a coarser one during nested iteration.
+  const bool finest = l == m_top, coarsest = l == 0;
+  const bool really_finest = l == static_cast<int>(m_levels.size()) - 1;
   RmtrLevelCounters& C = m_counters[static_cast<size_t>(l)];
   ++C.visits;
   const TrustRegionParams& p = m_params.tr;
@@ -228,13 +231,17 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     };
   }
   const auto record = [&](double energy) {
-    if (finest && (m_finest_energies.empty() || energy != m_finest_energies.back())) m_finest_energies.push_back(energy);
+    if (really_finest && (m_finest_energies.empty() || energy != m_finest_energies.back()))
+      m_finest_energies.push_back(energy);
   };
 
   // Line 2: pre-smoothing.
   c.max_iters = coarsest ? (m_params.coarsest_iters > 0 ? m_params.coarsest_iters : m_params.pre_smoothing)
                          : m_params.pre_smoothing;
   const LocalTrResult r1 = L.tr->run(*h, x, radius, c);
+  if (!finest)
+    logger().debug("rmtr level {} pre-smoothing: {} after {} iterations, |g| {:.3e} -> {:.3e} (target {:.3e}), h {:.6e}",
+                   l, r1.status, r1.iterations, r1.initial_grad_norm, r1.grad_norm, r1.grad_target, r1.initial_energy);
   CycleResult out;
   out.h_start = r1.initial_energy;
   out.h_end = r1.energy;
@@ -353,6 +360,71 @@ void Rmtr::accumulate() {
   }
 }
 
+void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
+  // Nested iteration (the F-cycle start of FMG, Gratton-Sartenaer-Toint 2008 §4): the problem of level t is the
+  // step rediscretized on its control mesh, without the coupling term of (4.3); its solution enters level t+1 as
+  // the correction S (x_t − x_t⁰), which keeps whatever fine-scale content the start had (a warm start's wrinkles).
+  const int top = static_cast<int>(m_levels.size()) - 1;
+  std::vector<VecX> xs(static_cast<size_t>(top + 1));
+  xs[static_cast<size_t>(top)] = x;
+  for (int l = top; l > 0; --l) m_levels[static_cast<size_t>(l)]->project(xs[static_cast<size_t>(l)], xs[static_cast<size_t>(l - 1)]);
+  const std::vector<VecX> x0s = xs;
+  m_nested_cycles.assign(static_cast<size_t>(top), 0);
+  for (int t = 0; t < top; ++t) {
+    if (base.timer && base.timer->seconds() >= base.max_seconds) break;
+    Level& L = *m_levels[static_cast<size_t>(t)];
+    RmtrLevelCounters& C = m_counters[static_cast<size_t>(t)];
+    VecX& xt = xs[static_cast<size_t>(t)];
+    VecX g;
+    double f = L.f->value(xt);
+    L.f->gradient(xt, g);
+    ++C.energy_evaluations;
+    ++C.gradient_assemblies;
+    check_finite(fmt::format("{} (nested level {})", m_name, top - t), f, g.norm(), 0);
+    LocalTrControl c = base;
+    c.rel_grad = 0.0;
+    c.abs_grad = m_params.nested_rel_grad * g.norm();
+    c.project = nullptr;
+    c.trace = nullptr;
+    int& cycles = m_nested_cycles[static_cast<size_t>(t)];
+    if (t == 0) {
+      LevelModel h(*L.f);
+      c.metric = L.metric.get();
+      c.max_iters = 100 * m_params.nested_max_cycles;
+      c.start_energy = &f;
+      c.start_gradient = &g;
+      double radius = m_params.tr.delta0;
+      cycles = L.tr->run(h, xt, radius, c).iterations;
+    } else {
+      m_top = t;
+      m_radius = m_params.tr.delta0;
+      m_finest_energy = f;
+      m_start_gradient = &g;
+      while (cycles < m_params.nested_max_cycles) {
+        if (base.timer && base.timer->seconds() >= base.max_seconds) break;
+        const VecX before = xt;
+        m_finest_stalled = false;
+        const CycleResult r = visit(t, xt, nullptr, nullptr, kInf, c);
+        ++cycles;
+        if (r.converged || L.tr->gradient().norm() <= c.abs_grad) break;
+        if (m_finest_stalled && (xt - before).norm() == 0.0) break;
+      }
+      m_start_gradient = nullptr;
+    }
+    // The solution as a correction of the next level's start, kept only where it lowers that level's energy.
+    Level& U = *m_levels[static_cast<size_t>(t + 1)];
+    VecX s, trial;
+    U.S->apply(VecX(xt - x0s[static_cast<size_t>(t)]), s);
+    trial = xs[static_cast<size_t>(t + 1)] + s;
+    const double f_old = U.f->value(xs[static_cast<size_t>(t + 1)]), f_new = U.f->value(trial);
+    m_counters[static_cast<size_t>(t + 1)].energy_evaluations += 2;
+    logger().debug("rmtr nested level {}: {} cycles, prolongated start {:.6e} -> {:.6e}", top - t, cycles, f_old, f_new);
+    if (std::isfinite(f_new) && f_new < f_old) xs[static_cast<size_t>(t + 1)].swap(trial);
+  }
+  m_top = top;
+  x = xs[static_cast<size_t>(top)];
+}
+
 double Rmtr::work_units_assembly() const {
   double w = 0.0;
   const int top = static_cast<int>(m_counters.size()) - 1;
@@ -376,6 +448,8 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   m_finest_energies.clear();
   m_radius = m_params.tr.delta0;
   m_finest_stalled = false;
+  m_top = static_cast<int>(m_levels.size()) - 1;
+  m_nested_cycles.clear();
   Level& F = *m_levels.back();
   if (m_params.scaling != "none") scale_finest(x);
 
@@ -384,6 +458,11 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   base.max_seconds = stop.max_seconds;
   base.timer = &timer;
   base.project = problem.project;
+  if (m_params.initial == "nested") {
+    nested_start(x, base);
+    if (problem.project) problem.project(x);
+    m_radius = m_params.tr.delta0;
+  }
 
   // The start point's energy and gradient, shared with the first pre-smoothing.
   m_finest_energy = F.f->value(x);
@@ -441,6 +520,8 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   rep.counters = {{"corrections_accepted", corr_acc}, {"corrections_rejected", corr_rej},
                   {"work_assembly", work_units_assembly()}, {"work_qp", work_units_qp()},
                   {"final_radius", m_radius}, {"levels", static_cast<double>(m_levels.size())}};
+  for (size_t i = 0; i < m_nested_cycles.size(); ++i)
+    rep.counters.push_back({fmt::format("level{}_nested_cycles", m_counters.size() - 1 - i), m_nested_cycles[i]});
   for (size_t i = m_counters.size(); i-- > 0;) {
     const size_t k = m_counters.size() - 1 - i;  // 0 = finest
     const auto& c = m_counters[i];

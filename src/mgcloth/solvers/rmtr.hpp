@@ -40,6 +40,15 @@ struct RmtrParams {
   std::string coarse_model = "first_order";
   /// Gradient tolerance ε_g^l of the coarse levels (Alg. 4.2, line 13), absolute; 0: the finest level's target.
   double coarse_abs_grad = 0.0;
+  /// Where the V-cycles start (beyond the paper): "fine" (the given iterate, as in the paper) or "nested" (nested
+  /// iteration, the F-cycle start of full multigrid: the coarsest level's own problem is solved by Local_TR, its
+  /// solution prolongated as a correction to the next level, whose problem is solved by RMTR V-cycles on the levels
+  /// below it, and so on up to the finest). Large motions are then found where a step costs 4^-l of a fine one.
+  std::string initial = "fine";
+  /// Nested iteration: each coarse level is solved to ‖∇f_l‖ ≤ nested_rel_grad · ‖∇f_l(start)‖ ...
+  double nested_rel_grad = 1e-3;
+  /// ... or for at most this many V-cycles (Local_TR iterations on the coarsest level: 100 times as many).
+  int nested_max_cycles = 200;
 };
 
 /// Work on one level, accumulated over a solve.
@@ -118,12 +127,16 @@ class Rmtr final : public NonlinearSolver {
   CycleResult visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin, double parent_radius,
                     const LocalTrControl& base);
   void accumulate();
+  /// Nested iteration (params.initial == "nested"): improves the finest iterate x by solving every coarser level's
+  /// problem in turn, coarsest first.
+  void nested_start(VecX& x, const LocalTrControl& base);
 
   RmtrParams m_params;
   std::string m_name;
   std::vector<std::unique_ptr<Level>> m_levels;  ///< coarsest first
   std::vector<const void*> m_key;                ///< the problem's operators the levels were built for
-  double m_radius = 0.0;                         ///< Δ of the finest level, carried across cycles
+  double m_radius = 0.0;                         ///< Δ of the top level, carried across cycles
+  int m_top = 0;  ///< the level the V-cycles solve: the finest, or a coarser one during nested iteration
   /// The finest iterate's energy and gradient where the next finest Local_TR run starts (null: unknown).
   double m_finest_energy = 0.0;
   const VecX* m_start_gradient = nullptr;
@@ -133,6 +146,7 @@ class Rmtr final : public NonlinearSolver {
   std::vector<RmtrLevelCounters> m_counters;
   std::vector<RmtrCorrection> m_corrections;
   std::vector<double> m_finest_energies;
+  std::vector<int> m_nested_cycles;  ///< V-cycles (coarsest: Local_TR iterations) per level of nested iteration
 };
 
 }  // namespace mgcloth::solvers
