@@ -11,6 +11,7 @@
 #include <mgcloth/embedded/plot_scalability.hpp>
 #include <mgcloth/sim/convergence.hpp>
 #include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/sim/timestep_bench.hpp>
 
 #include <fmt/format.h>
 
@@ -60,6 +61,14 @@ struct ShellArgs {
   int max_iters = 0, threads = 0;
   bool quiet = false, verbose = false;
 } g_shell;
+
+struct TimestepArgs {
+  std::vector<std::string> scenes;
+  std::string solvers = "tr-dogleg,rmtr,newton-ls,newton-damped,linearized", out;
+  int level = 3, max_iters = 0, threads = 0;
+  double max_dt = 1.0, min_dt = 1.0 / 64.0, window = 0.0, max_seconds = 0.0;
+  bool quiet = false, verbose = false;
+} g_step;
 
 struct ProjectionArgs {
   std::string scene, out;
@@ -351,6 +360,67 @@ int run_shells_command() {
   return 0;
 }
 
+int run_timestep_command() {
+  sim::TimestepBenchOptions opt;
+  if (g_step.level < 1 || g_step.level > 9) throw_input_error("--level: {} is out of range [1, 9]", g_step.level);
+  opt.level = g_step.level;
+  opt.solvers = with_prefix("--solvers", [] { return sim::parse_solver_list(g_step.solvers); });
+  for (size_t i = 0; i < opt.solvers.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (opt.solvers[i].label == opt.solvers[j].label)
+        throw_input_error("--solvers: \"{}\" is listed twice", opt.solvers[i].label);
+  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  const auto positive = [](const char* option, double v) {
+    if (!(v > 0.0) || !std::isfinite(v)) throw_input_error("{}: must be a positive number of seconds (got {})", option, v);
+  };
+  positive("--max-dt", g_step.max_dt);
+  positive("--min-dt", g_step.min_dt);
+  if (g_step.min_dt > g_step.max_dt)
+    throw_input_error("--min-dt: {} is larger than --max-dt ({})", g_step.min_dt, g_step.max_dt);
+  if (!(g_step.window >= 0.0) || !std::isfinite(g_step.window))
+    throw_input_error("--window: must be a positive number of seconds, or 0 for the scene's duration (got {})",
+                      g_step.window);
+  if (g_step.max_iters < 0) throw_input_error("--max-iters: must be at least 1, or 0 for the scenes' (got {})", g_step.max_iters);
+  if (!(g_step.max_seconds >= 0.0) || std::isnan(g_step.max_seconds))
+    throw_input_error("--max-seconds: must be a positive number of seconds, or 0 for no cap (got {})", g_step.max_seconds);
+  if (g_step.threads < 0) throw_input_error("--threads: must be non-negative (got {})", g_step.threads);
+  opt.max_dt = g_step.max_dt;
+  opt.min_dt = g_step.min_dt;
+  opt.window = g_step.window;
+  opt.max_iters = g_step.max_iters;
+  opt.max_seconds = g_step.max_seconds;
+  opt.threads = g_step.threads;
+  std::vector<sim::Scene> scenes;
+  for (const auto& f : g_step.scenes) {
+    check_scene_file(f);
+    scenes.push_back(sim::load_scene(f));
+    if (scenes.back().shells.empty()) throw_input_error("{}: the scene has no shells", f);
+  }
+  const fs::path out = g_step.out;
+  prepare_out_dir(out);
+  set_log_level(g_step.quiet);
+  if (g_step.verbose) logger().set_level(spdlog::level::debug);
+  // Rewritten after every try: a study of an hour keeps what it has measured if it is stopped.
+  const auto write = [&](const std::vector<sim::TimestepBenchRow>& rows) {
+    write_file_atomic(out / "timestep.csv", sim::timestep_bench_csv(rows));
+    write_file_atomic(out / "timestep.json", sim::timestep_bench_json(rows, opt).dump(2) + "\n");
+  };
+  const auto rows = sim::run_timestep_bench(scenes, opt, write);
+  write(rows);
+  const auto summary = sim::timestep_bench_summary(rows);
+  size_t width = 6;
+  for (const auto& s : summary) width = std::max(width, s.solver.size());
+  std::string table = fmt::format("{:<12} {:>6} {:<{}} {:>10} {:>10} {:>9} {:>6} {:>9}\n", "shell", "dofs", "solver",
+                                  width, "largest dt", "iterations", "wall_s", "tries", "total_s");
+  for (const auto& s : summary)
+    table += fmt::format("{:<12} {:>6} {:<{}} {:>10} {:>10} {:>9.2f} {:>6} {:>9.2f}\n", s.shells, s.dofs, s.solver,
+                         width, s.largest_dt > 0 ? fmt::format("{:g}", s.largest_dt) : "none", s.iterations, s.wall_s,
+                         s.tries, s.total_wall_s);
+  std::fputs(table.c_str(), stdout);
+  std::printf("wrote %s: timestep.csv, timestep.json\n", out.string().c_str());
+  return 0;
+}
+
 int run_projections_command() {
   check_scene_file(g_proj.scene);
   sim::Scene scene = sim::load_scene(g_proj.scene);
@@ -421,6 +491,24 @@ void add_bench_command(CLI::App& app) {
   sh->add_flag("--quiet,-q", g_shell.quiet, "No progress log");
   sh->add_flag("--verbose,-v", g_shell.verbose, "Log solver details (every V-cycle and coarse correction)");
 
+  auto* ts = bench->add_subcommand(
+      "timestep", "Largest time step at which each shell solver converges at every step (Kopanicakova 2019, Fig. 10)");
+  ts->add_option("scenes", g_step.scenes, "Shell scene files (JSON)")->required();
+  ts->add_option("--level", g_step.level, "Subdivision level of every shell (3: 1,083 dofs)")->default_val(3);
+  ts->add_option("--solvers", g_step.solvers, "Comma-separated solvers, NAME or NAME@key=value@...")
+      ->default_val("tr-dogleg,rmtr,newton-ls,newton-damped,linearized");
+  ts->add_option("--out,-o", g_step.out, "Output folder (created if missing)")->required();
+  ts->add_option("--max-dt", g_step.max_dt, "Largest time step tried, seconds")->default_val(1.0);
+  ts->add_option("--min-dt", g_step.min_dt, "Smallest time step tried (dt is halved from --max-dt down to it), seconds")
+      ->default_val(1.0 / 64.0);
+  ts->add_option("--window", g_step.window,
+                 "Simulated seconds per try (default: the scene's duration, at most 2 s)");
+  ts->add_option("--max-iters", g_step.max_iters, "Iteration cap per solve (default: the scenes' solver.max_iters)");
+  ts->add_option("--max-seconds", g_step.max_seconds, "Wall-time cap per solve, seconds (default: none)");
+  ts->add_option("--threads,-j", g_step.threads, "Worker threads (default: all cores)");
+  ts->add_flag("--quiet,-q", g_step.quiet, "No progress log");
+  ts->add_flag("--verbose,-v", g_step.verbose, "Log solver details");
+
   auto* pj = bench->add_subcommand(
       "projections", "Build time, memory and exactness of reverse subdivision vs least squares per level (Kopanicakova 2019, Table 8)");
   pj->add_option("scene", g_proj.scene, "Shell scene file (JSON); its first shell")->required();
@@ -433,6 +521,7 @@ int run_bench_command(CLI::App& bench) {
   if (bench.got_subcommand("convergence")) return run_convergence_command();
   if (bench.got_subcommand("scalability")) return run_scalability_command();
   if (bench.got_subcommand("shells")) return run_shells_command();
+  if (bench.got_subcommand("timestep")) return run_timestep_command();
   if (bench.got_subcommand("projections")) return run_projections_command();
   return 1;
 }

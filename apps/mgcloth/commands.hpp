@@ -8,7 +8,7 @@ void add_info_command(CLI::App& app);
 void add_hierarchy_command(CLI::App& app);
 /// Runs `mgcloth hierarchy` once parsed; returns the exit code.
 int run_hierarchy_command();
-/// `mgcloth bench convergence|scalability` (bench_command.cpp).
+/// `mgcloth bench convergence|scalability|shells|timestep|projections` (bench_command.cpp).
 void add_bench_command(CLI::App& app);
 /// Runs the parsed `bench` subcommand; returns the exit code.
 int run_bench_command(CLI::App& bench);

@@ -457,6 +457,75 @@ TEST_F(Cli, ShellSceneRunsWritesProbesAndResumes) {
   EXPECT_NE(r.code, 0);
 }
 
+// The time-step study from the command line: a row per tried dt in the CSV, the largest passing dt in the table,
+// and one-line errors naming the offending option.
+TEST_F(Cli, TimestepBenchWritesARowPerTriedStepAndRejectsBadInput) {
+  const std::string scenes = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/";
+  const std::string trampoline = scenes + "shell_trampoline.json", drooping = scenes + "shell_drooping.json";
+  const fs::path out = dir / "ts";
+  Result r = run(fmt::format("bench timestep {} {} --level 1 --solvers tr-dogleg,newton-damped --min-dt 0.25 "
+                             "--window 0.5 --max-iters 3 -j 1 -q -o {}",
+                             trampoline, drooping, out.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream csv(out / "timestep.csv");
+  std::string header, line;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "scene,shells,level,dofs,solver,time_step,window,steps,steps_run,passed,failed_step,status,"
+                    "grad_norm,rel_grad,stalled_steps,iterations,max_step_iterations,wall_s");
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
+    ASSERT_EQ(cells.size(), 18u) << line;
+    rows.push_back(cells);
+  }
+  // Three TR iterations solve neither scene's first step to 1e-7, nor do three damped Newton iterations: every
+  // (scene, solver) tries 1, 0.5 and 0.25.
+  ASSERT_EQ(rows.size(), 2u * 2u * 3u);
+  const char* dts[] = {"1", "0.5", "0.25"};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i][5], dts[i % 3]) << i;
+    EXPECT_EQ(rows[i][9], "0") << i;
+    EXPECT_EQ(rows[i][11], "max_iters") << i;
+  }
+  EXPECT_TRUE(fs::exists(out / "timestep.json"));
+  EXPECT_NE(r.out.find("none"), std::string::npos) << r.out;
+
+  // Without the cap the trust region converges on the Trampoline at dt = 1: one row, and 1 in the table.
+  r = run(fmt::format("bench timestep {} --level 2 --solvers tr-dogleg --window 1 -j 1 -q -o {}", trampoline,
+                      out.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string table = mgcloth::read_file(out / "timestep.csv");
+  EXPECT_EQ(count_lines(table), 2) << table;
+  EXPECT_NE(table.find(",tr-dogleg,1,1,1,1,1,0,converged,"), std::string::npos) << table;
+  // The summary row: shell, dofs, solver, largest dt, ...
+  std::stringstream summary(r.out.substr(r.out.find("\ntrampoline") + 1));
+  std::string shell, dofs, solver, largest;
+  summary >> shell >> dofs >> solver >> largest;
+  EXPECT_EQ(dofs + " " + solver + " " + largest, "363 tr-dogleg 1") << r.out;
+
+  const auto expect_error = [](const Result& res, const std::string& text) {
+    EXPECT_EQ(res.code, 1) << res.out;
+    EXPECT_NE(res.out.find(text), std::string::npos) << res.out;
+    EXPECT_EQ(count_lines(res.out), 1) << res.out;
+  };
+  const std::string bad_out = " -o " + (dir / "bad").string();
+  const std::string ts = "bench timestep " + trampoline + bad_out;
+  expect_error(run(ts + " --min-dt 0"), "--min-dt: must be a positive");
+  expect_error(run(ts + " --min-dt -0.5"), "--min-dt: must be a positive");
+  expect_error(run(ts + " --min-dt 2"), "--min-dt: 2 is larger than --max-dt");
+  expect_error(run(ts + " --window -1"), "--window");
+  expect_error(run(ts + " --max-seconds -1"), "--max-seconds");
+  expect_error(run(ts + " --level 0"), "--level: 0 is out of range");
+  expect_error(run(ts + " --solvers tr-dogleg,nonsense"), "unknown solver \"nonsense\"");
+  expect_error(run(ts + " --solvers tr-dogleg,tr-dogleg"), "--solvers: \"tr-dogleg\" is listed twice");
+  expect_error(run("bench timestep " + scenes + "absent.json" + bad_out), "absent.json: no such file");
+  expect_error(run("bench timestep " + small_scene() + bad_out), "the scene has no shells");
+  EXPECT_NE(run("bench timestep " + trampoline).code, 0);  // --out is required
+  EXPECT_FALSE(fs::exists(dir / "bad"));
+}
+
 // RMTR runs a shell scene from the command line, and the projections benchmark reports both operators per level.
 TEST_F(Cli, RmtrRunsAShellSceneAndProjectionsBenchReportsBothOperators) {
   const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_trampoline.json";

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/linalg/exact_trust_region.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
 #include <mgcloth/linalg/patch_smoother.hpp>
 #include <mgcloth/linalg/trust_region_qp.hpp>
@@ -608,4 +609,65 @@ TEST(TrustRegionQpSchwarz, PatchSmootherSolvesConvergesAndItsStepBeatsTheCauchyP
       EXPECT_GE(r.model_decrease, cauchy - 1e-12 * std::abs(cauchy)) << "spd " << c.spd << " delta " << delta;
     }
   }
+}
+
+// The exact subproblem solution (Moré-Sorensen conditions, Nocedal-Wright Thm. 4.1): ‖s‖_M ≤ Δ, (H + σM)s = −g
+// with σ ≥ 0, H + σM positive semidefinite, σ = 0 unless s is on the sphere; and so at least the decrease of the
+// dogleg and of the Cauchy point, on SPD and indefinite Hessians, in ℓ2 and in a Galerkin-like metric.
+TEST(TrustRegionQpExact, SatisfiesTheOptimalityConditionsAndBeatsTheDogleg) {
+  for (const bool with_metric : {false, true}) {
+    const NormMetric metric = random_metric(20, 7);
+    const NormMetric* m = with_metric ? &metric : nullptr;
+    const Eigen::MatrixXd M = with_metric ? dense(metric.matrix()) : Eigen::MatrixXd::Identity(60, 60);
+    for (const Case& c : cases()) {
+      ExactTrustRegion exact;
+      exact.prepare(c.H, c.g, m);
+      Dogleg dogleg;
+      dogleg.prepare(c.H, c.g, m);
+      const Eigen::MatrixXd H = dense(c.H);
+      for (double r : kRadii) {
+        const QpResult q = exact.step(r);
+        const double norm = metric_norm(M, q.s);
+        EXPECT_LE(norm, r * (1 + 1e-8));
+        EXPECT_NEAR(q.model_decrease, model_decrease(c.H, c.g, q.s), 1e-9 * std::max(1.0, std::abs(q.model_decrease)));
+        // σ from the residual of (H + σM)s = −g along s; then the residual vanishes and H + σM ⪰ 0.
+        const VecX Hs = H * q.s, Ms = M * q.s;
+        const double sigma = -(c.g + Hs).dot(Ms) / Ms.squaredNorm();
+        EXPECT_GE(sigma, -1e-8 * (1 + H.norm()));
+        EXPECT_LT((Hs + sigma * Ms + c.g).norm(), 1e-7 * (c.g.norm() + H.norm() * q.s.norm())) << "radius " << r;
+        const double lmin = Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd>(H + sigma * M, M).eigenvalues()[0];
+        EXPECT_GE(lmin, -1e-7 * H.norm()) << "radius " << r;
+        if (q.reason == QpStop::Converged) EXPECT_LT(std::abs(sigma), 1e-8 * (1 + H.norm()));
+        EXPECT_GE(q.model_decrease, dogleg.step(r).model_decrease * (1 - 1e-9)) << "radius " << r;
+      }
+    }
+  }
+}
+
+// The hard case: g orthogonal to the eigenvector of the most negative eigenvalue. The dogleg's shifted Newton point
+// barely moves along it; the exact step fills the ball and goes along it.
+TEST(TrustRegionQpExact, HardCaseFillsTheBallAlongTheNegativeCurvature) {
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(6, 6);
+  D.diagonal() << -2.0, 1.0, 3.0, 4.0, 5.0, 6.0;
+  const BlockMatrix3 H = dense_blocks(D);
+  VecX g(6);
+  g << 0.0, 0.1, 0.1, 0.1, 0.1, 0.1;
+  ExactTrustRegion exact;
+  exact.prepare(H, g);
+  const QpResult q = exact.step(1.0);
+  EXPECT_EQ(q.reason, QpStop::Boundary);
+  EXPECT_NEAR(q.s.norm(), 1.0, 1e-10);
+  EXPECT_GT(std::abs(q.s[0]), 0.9);
+  EXPECT_NEAR(q.model_decrease, -(g.dot(q.s) + 0.5 * q.s.dot(D * q.s)), 1e-12);
+  // The minimizer of the model on the ball: −½·2·s₀² dominates, so the decrease is about 1.
+  EXPECT_GT(q.model_decrease, 0.95);
+}
+
+TEST(TrustRegionQpExact, RefusesLargeProblems) {
+  const Index points = ExactTrustRegion::max_dofs / 3 + 1;
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i < points; ++i) pairs.push_back({i, i});
+  BlockMatrix3 H(points, std::move(pairs));
+  ExactTrustRegion exact;
+  EXPECT_THROW(exact.prepare(H, VecX::Zero(3 * points)), Error);
 }

@@ -21,6 +21,25 @@ bool has_counter(const ShellBenchRow& r, const std::string& name) {
 }
 }  // namespace
 
+Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt) {
+  Scene scene = base;
+  scene.cloths.clear();
+  if (level > 0)
+    for (auto& sh : scene.shells) sh.level = level;
+  if (opt.time_step > 0.0) {
+    scene.frame_time = opt.time_step;
+    scene.substeps = 1;
+  }
+  scene.frames = 1;
+  // The Simulator applies the scene's thread count, which would otherwise override the benchmark's.
+  if (opt.threads > 0) scene.threads = opt.threads;
+  scene.solver.name = spec.config.name;
+  scene.solver.params = spec.config.params;
+  if (opt.max_iters > 0) scene.solver.stop.max_iters = opt.max_iters;
+  if (opt.max_seconds > 0.0) scene.solver.stop.max_seconds = opt.max_seconds;
+  return scene;
+}
+
 std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& opt,
                                            const ShellBenchProgress& on_row) {
   if (opt.threads > 0) set_num_threads(opt.threads);
@@ -29,18 +48,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
     if (base.shells.empty()) throw_input_error("{}: the scene has no shells", base.file);
     for (int level : opt.levels)
       for (const SolverSpec& spec : opt.solvers) {
-        Scene scene = base;
-        scene.cloths.clear();
-        for (auto& sh : scene.shells) sh.level = level;
-        if (opt.time_step > 0.0) {
-          scene.frame_time = opt.time_step;
-          scene.substeps = 1;
-        }
-        scene.frames = 1;
-        scene.solver.name = spec.config.name;
-        scene.solver.params = spec.config.params;
-        if (opt.max_iters > 0) scene.solver.stop.max_iters = opt.max_iters;
-        if (opt.max_seconds > 0.0) scene.solver.stop.max_seconds = opt.max_seconds;
+        const Scene scene = shell_bench_scene(base, level, spec, opt);
         Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
           ShellBenchRow row;

@@ -30,6 +30,11 @@ struct ShellBenchRow {
   std::vector<std::pair<std::string, double>> counters;
 };
 
+/// The scene as the shell benchmarks run it: its shells only, each at `level` (0: the scene's), solved by `spec`
+/// with the scene's stopping criterion, and opt's time step (one step per frame), caps and threads where they are
+/// set; one frame.
+Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt);
+
 /// Called after every finished row with all rows so far, so that a long study can write its results as it goes.
 using ShellBenchProgress = std::function<void(const std::vector<ShellBenchRow>&)>;
 

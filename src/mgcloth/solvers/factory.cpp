@@ -152,7 +152,7 @@ Json write_trust_region(const TrustRegionParams& p) {
 }
 
 std::string qp_name(TrQp q) {
-  return q == TrQp::Dogleg ? "dogleg" : q == TrQp::GaussSeidel ? "gauss_seidel" : q == TrQp::Schwarz ? "schwarz" : "stcg";
+  return q == TrQp::Dogleg ? "dogleg" : q == TrQp::Exact ? "exact" : q == TrQp::GaussSeidel ? "gauss_seidel" : q == TrQp::Schwarz ? "schwarz" : "stcg";
 }
 
 RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
@@ -167,13 +167,14 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
 
   const auto parse_qp = [](const std::string& s) {
     return s == "dogleg"         ? TrQp::Dogleg
+           : s == "exact"        ? TrQp::Exact
            : s == "gauss_seidel" ? TrQp::GaussSeidel
            : s == "schwarz"      ? TrQp::Schwarz
                                  : TrQp::SteihaugCg;
   };
   p.smoother_qp = parse_qp(r.choice("smoother", qp_name(p.smoother_qp), {"stcg", "dogleg", "gauss_seidel", "schwarz"}));
   p.tr.gs_sweeps = r.integer("smoother_sweeps", p.tr.gs_sweeps, 1, 1000);
-  p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp_name(p.coarsest_qp), {"dogleg", "stcg"}));
+  p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp_name(p.coarsest_qp), {"dogleg", "stcg", "exact"}));
   p.levels = r.integer("levels", p.levels, 0, 20);
   if (p.levels == 1) r.fail("levels", "RMTR needs at least 2 levels (0: all of the hierarchy); use tr-dogleg for one");
   p.projection = r.choice("projection", p.projection, {"reverse_subdivision", "least_squares"});

@@ -67,6 +67,7 @@ void LocalTrustRegion::reset() {
 linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric) {
   ++m_counters.qp_calls;
   if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
+  if (m_params.qp == TrQp::Exact) return m_exact.step(radius);
   if (m_params.qp == TrQp::GaussSeidel) return linalg::gauss_seidel_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_gs, metric);
   if (m_params.qp == TrQp::Schwarz) return linalg::patch_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_patches, metric);
   const double tol = m_params.stcg_rel_tol > 0.0
@@ -128,6 +129,13 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         }
         m_counters.factorizations += m_dogleg.factorizations() - before;
         m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
+      }
+      if (p.qp == TrQp::Exact) {
+        try {
+          m_exact.prepare(m_hessian, m_g, control.metric);
+        } catch (const Error& e) {
+          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+        }
       }
       if (p.qp == TrQp::Schwarz) {
         if (!m_patches) throw Error(fmt::format("{}: the Schwarz smoother has no patches", m_name));

@@ -1,4 +1,5 @@
 #pragma once
+#include <mgcloth/linalg/exact_trust_region.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
 #include <mgcloth/linalg/patch_smoother.hpp>
@@ -14,7 +15,7 @@ namespace mgcloth::solvers {
 /// Subproblem solver of each trust-region iteration (Kopaničáková 2019, §7.3).
 /// GaussSeidel: a smoothing step (linalg::gauss_seidel_step), for RMTR's smoothers (beyond the paper).
 /// Schwarz: the same with overlapping patches (linalg::patch_step; needs LocalTrustRegion::set_patches()).
-enum class TrQp { Dogleg, SteihaugCg, GaussSeidel, Schwarz };
+enum class TrQp { Dogleg, SteihaugCg, GaussSeidel, Schwarz, Exact };
 
 /// Trust-region constants (Kopaničáková 2019, Table 2) and stopping rules (§7.2, criterion 7.1).
 struct TrustRegionParams {
@@ -163,6 +164,7 @@ class LocalTrustRegion {
   TrustRegionParams m_params;
   std::string m_name;
   linalg::Dogleg m_dogleg;
+  linalg::ExactTrustRegion m_exact;
   std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
   std::unique_ptr<linalg::PatchSmoother> m_patches;
   linalg::BlockMatrix3 m_hessian;

@@ -1,0 +1,193 @@
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/sim/simulator.hpp>
+#include <mgcloth/sim/timestep_bench.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace mgcloth::sim {
+
+namespace {
+
+void check_options(const TimestepBenchOptions& opt) {
+  if (opt.solvers.empty()) throw_input_error("time-step study: no solvers given");
+  if (!(opt.window >= 0.0) || !std::isfinite(opt.window))
+    throw_input_error("window: must be a non-negative number of seconds (got {})", opt.window);
+  if (opt.max_iters < 0) throw_input_error("max_iters: must be non-negative (got {})", opt.max_iters);
+  if (!(opt.max_seconds >= 0.0)) throw_input_error("max_seconds: must be non-negative (got {})", opt.max_seconds);
+  if (!(opt.stall_rel_grad >= 0.0 && opt.stall_rel_grad < 1.0))
+    throw_input_error("stall_rel_grad: must be in [0, 1) (got {})", opt.stall_rel_grad);
+  if (opt.level < 0 || opt.level > 9) throw_input_error("level: {} is out of range [0, 9]", opt.level);
+  timestep_ladder(opt);
+}
+
+double window_of(const Scene& scene, const TimestepBenchOptions& opt) {
+  if (opt.window > 0.0) return opt.window;
+  return std::min(scene.frames * scene.frame_time, TimestepBenchOptions::kDefaultWindowCap);
+}
+
+int steps_for(double window, double dt) {
+  // The tolerance keeps window / dt = 64 exactly from becoming 65 steps through round-off.
+  return std::max(1, static_cast<int>(std::ceil(window / dt * (1.0 - 1e-12))));
+}
+
+TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double dt, const TimestepBenchOptions& opt) {
+  ShellBenchOptions caps;
+  caps.time_step = dt;
+  caps.max_iters = opt.max_iters;
+  caps.max_seconds = opt.max_seconds;
+  caps.threads = opt.threads;
+  Scene scene = shell_bench_scene(base, opt.level, spec, caps);
+  TimestepBenchRow row;
+  row.scene = base.file;
+  row.solver = spec.label;
+  row.time_step = dt;
+  row.window = window_of(base, opt);
+  row.steps = steps_for(row.window, dt);
+  scene.frames = row.steps;
+  row.level = scene.shells.front().level;
+  Simulator sim(scene);
+  for (const auto& sh : sim.shells()) {
+    row.shells += (row.shells.empty() ? "" : "+") + sh->name();
+    row.dofs += static_cast<Index>(sh->x().size());
+  }
+  row.status = "converged";
+  Timer timer;
+  for (int k = 1; k <= row.steps && row.failed_step == 0; ++k) {
+    ++row.steps_run;
+    std::vector<StepStats> stats;
+    try {
+      stats = sim.step();
+    } catch (const SolveError& e) {
+      // Criterion (7.1) is never met by a solve that throws: a non-finite energy or a failed line search.
+      row.failed_step = k;
+      row.status = "diverged";
+      row.message = e.what();
+      break;
+    }
+    int step_iterations = 0;
+    for (const StepStats& s : stats) {
+      const solvers::SolveReport& r = s.report;
+      step_iterations += r.iterations;
+      if (row.failed_step > 0) continue;
+      row.grad_norm = r.grad_norm;
+      row.initial_grad_norm = r.initial_grad_norm;
+      if (!meets_criterion(r, opt.stall_rel_grad)) {
+        row.failed_step = k;
+        row.status = r.status;
+      } else if (!r.converged) {
+        ++row.stalled_steps;
+      }
+    }
+    row.iterations += step_iterations;
+    row.max_step_iterations = std::max(row.max_step_iterations, step_iterations);
+  }
+  row.passed = row.failed_step == 0;
+  row.wall_s = timer.seconds();
+  logger().info("{} level {} ({} dofs) {} dt = {:g}: {} after {}/{} steps, {} iterations in {:.2f} s", row.shells,
+                row.level, row.dofs, row.solver, dt, row.passed ? "passed" : row.status, row.steps_run, row.steps,
+                row.iterations, row.wall_s);
+  return row;
+}
+
+}  // namespace
+
+bool meets_criterion(const solvers::SolveReport& r, double stall_rel_grad) {
+  return r.converged || (r.status == "stalled" && r.grad_norm <= stall_rel_grad * r.initial_grad_norm);
+}
+
+std::vector<double> timestep_ladder(const TimestepBenchOptions& opt) {
+  if (!(opt.max_dt > 0.0) || !std::isfinite(opt.max_dt))
+    throw_input_error("max_dt: must be a positive number of seconds (got {})", opt.max_dt);
+  if (!(opt.min_dt > 0.0) || !std::isfinite(opt.min_dt))
+    throw_input_error("min_dt: must be a positive number of seconds (got {})", opt.min_dt);
+  if (opt.min_dt > opt.max_dt) throw_input_error("min_dt: {} is larger than max_dt = {}", opt.min_dt, opt.max_dt);
+  std::vector<double> dts;
+  // Halving is exact in binary, so 1/64 is reached exactly; the tolerance only guards a min_dt typed in decimal.
+  for (double dt = opt.max_dt; dt >= opt.min_dt * (1.0 - 1e-12); dt *= 0.5) dts.push_back(dt);
+  return dts;
+}
+
+std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scenes, const TimestepBenchOptions& opt,
+                                                 const TimestepBenchProgress& on_row) {
+  check_options(opt);
+  for (const Scene& s : scenes)
+    if (s.shells.empty()) throw_input_error("{}: the scene has no shells", s.file);
+  if (opt.threads > 0) set_num_threads(opt.threads);
+  const std::vector<double> dts = timestep_ladder(opt);
+  std::vector<TimestepBenchRow> rows;
+  for (const Scene& base : scenes)
+    for (const SolverSpec& spec : opt.solvers)
+      for (double dt : dts) {
+        rows.push_back(try_time_step(base, spec, dt, opt));
+        if (on_row) on_row(rows);
+        if (rows.back().passed) break;
+      }
+  return rows;
+}
+
+std::vector<TimestepBenchSummary> timestep_bench_summary(const std::vector<TimestepBenchRow>& rows) {
+  std::vector<TimestepBenchSummary> out;
+  for (const TimestepBenchRow& r : rows) {
+    auto it = std::find_if(out.begin(), out.end(),
+                           [&](const TimestepBenchSummary& s) { return s.scene == r.scene && s.solver == r.solver; });
+    if (it == out.end()) {
+      out.push_back({r.scene, r.shells, r.solver, r.dofs});
+      it = out.end() - 1;
+    }
+    ++it->tries;
+    it->total_wall_s += r.wall_s;
+    if (r.passed && r.time_step > it->largest_dt) {
+      it->largest_dt = r.time_step;
+      it->iterations = r.iterations;
+      it->wall_s = r.wall_s;
+    }
+  }
+  return out;
+}
+
+std::string timestep_bench_csv(const std::vector<TimestepBenchRow>& rows) {
+  std::string out =
+      "scene,shells,level,dofs,solver,time_step,window,steps,steps_run,passed,failed_step,status,grad_norm,rel_grad,"
+      "stalled_steps,iterations,max_step_iterations,wall_s\n";
+  for (const auto& r : rows)
+    out += fmt::format("{},{},{},{},{},{:g},{:g},{},{},{},{},{},{:.6e},{:.6e},{},{},{},{:.4f}\n", r.scene, r.shells,
+                       r.level, r.dofs, r.solver, r.time_step, r.window, r.steps, r.steps_run, r.passed ? 1 : 0,
+                       r.failed_step, r.status, r.grad_norm,
+                       r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.stalled_steps,
+                       r.iterations, r.max_step_iterations, r.wall_s);
+  return out;
+}
+
+Json timestep_bench_json(const std::vector<TimestepBenchRow>& rows, const TimestepBenchOptions& opt) {
+  Json j;
+  j["level"] = opt.level;
+  j["solvers"] = Json::array();
+  for (const auto& s : opt.solvers) j["solvers"].push_back(s.label);
+  j["time_steps"] = timestep_ladder(opt);
+  j["window"] = opt.window;
+  j["max_iters"] = opt.max_iters;
+  j["max_seconds"] = opt.max_seconds;
+  j["stall_rel_grad"] = opt.stall_rel_grad;
+  j["threads"] = opt.threads > 0 ? opt.threads : num_threads();
+  j["results"] = Json::array();
+  for (const auto& r : rows)
+    j["results"].push_back({{"scene", r.scene}, {"shells", r.shells}, {"level", r.level}, {"dofs", r.dofs},
+                            {"solver", r.solver}, {"time_step", r.time_step}, {"window", r.window},
+                            {"steps", r.steps}, {"steps_run", r.steps_run}, {"passed", r.passed},
+                            {"failed_step", r.failed_step}, {"status", r.status}, {"message", r.message},
+                            {"grad_norm", r.grad_norm}, {"initial_grad_norm", r.initial_grad_norm},
+                            {"stalled_steps", r.stalled_steps}, {"iterations", r.iterations},
+                            {"max_step_iterations", r.max_step_iterations}, {"wall_s", r.wall_s}});
+  j["summary"] = Json::array();
+  for (const auto& s : timestep_bench_summary(rows))
+    j["summary"].push_back({{"scene", s.scene}, {"shells", s.shells}, {"dofs", s.dofs}, {"solver", s.solver},
+                            {"largest_dt", s.largest_dt}, {"iterations", s.iterations}, {"wall_s", s.wall_s},
+                            {"tries", s.tries}, {"total_wall_s", s.total_wall_s}});
+  return j;
+}
+
+}  // namespace mgcloth::sim

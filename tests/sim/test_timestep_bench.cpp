@@ -1,0 +1,124 @@
+// The time-step robustness study (Kopaničáková 2019, §7.4.1, Fig. 10): the dt ladder, the pass criterion (7.1),
+// and the search that halves dt until a solver converges at every step of the window.
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/sim/scene.hpp>
+#include <mgcloth/sim/timestep_bench.hpp>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+using namespace mgcloth;
+
+namespace {
+
+sim::Scene shell_scene(const std::string& name) {
+  return sim::load_scene(std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_" + name + ".json");
+}
+
+sim::TimestepBenchOptions small_study(const std::string& solvers) {
+  sim::TimestepBenchOptions opt;
+  opt.level = 1;
+  opt.solvers = sim::parse_solver_list(solvers);
+  opt.threads = 1;
+  return opt;
+}
+
+}  // namespace
+
+TEST(TimestepBench, LadderHalvesFromMaxDownToMin) {
+  sim::TimestepBenchOptions opt;
+  EXPECT_EQ(sim::timestep_ladder(opt), (std::vector<double>{1, 0.5, 0.25, 0.125, 0.0625, 0.03125, 0.015625}));
+  opt.min_dt = 0.2;  // not a power of two: the smallest halving above it is the last
+  EXPECT_EQ(sim::timestep_ladder(opt), (std::vector<double>{1, 0.5, 0.25}));
+  opt.min_dt = 0.0;
+  EXPECT_THROW(sim::timestep_ladder(opt), InputError);
+  opt.min_dt = 2.0;
+  EXPECT_THROW(sim::timestep_ladder(opt), InputError);
+}
+
+TEST(TimestepBench, StallPassesOnlyAtTheLimitingAccuracy) {
+  solvers::SolveReport r;
+  r.status = "stalled";
+  r.initial_grad_norm = 1.0;
+  r.grad_norm = 1e-6;
+  EXPECT_TRUE(sim::meets_criterion(r, 1e-5));
+  r.grad_norm = 1e-2;
+  EXPECT_FALSE(sim::meets_criterion(r, 1e-5));
+  r.status = "max_iters";
+  r.grad_norm = 1e-9;
+  EXPECT_FALSE(sim::meets_criterion(r, 1e-5));
+  r.converged = true;
+  r.status = "converged";
+  EXPECT_TRUE(sim::meets_criterion(r, 1e-5));
+}
+
+// The Trampoline is nearly linear: the trust region converges at dt = 1, so nothing smaller is tried.
+TEST(TimestepBench, TrustRegionPassesTheTrampolineAtOneSecond) {
+  sim::TimestepBenchOptions opt = small_study("tr-dogleg");
+  opt.window = 2.0;
+  int progress_calls = 0;
+  const auto rows = sim::run_timestep_bench({shell_scene("trampoline")}, opt,
+                                            [&](const std::vector<sim::TimestepBenchRow>&) { ++progress_calls; });
+  ASSERT_EQ(rows.size(), 1u);
+  const auto& r = rows[0];
+  EXPECT_TRUE(r.passed) << r.status;
+  EXPECT_EQ(r.time_step, 1.0);
+  EXPECT_EQ(r.steps, 2);
+  EXPECT_EQ(r.steps_run, 2);
+  EXPECT_EQ(r.failed_step, 0);
+  EXPECT_EQ(r.status, "converged");
+  EXPECT_EQ(r.dofs, 147);
+  EXPECT_GT(r.iterations, 0);
+  EXPECT_EQ(progress_calls, 1);
+  const auto summary = sim::timestep_bench_summary(rows);
+  ASSERT_EQ(summary.size(), 1u);
+  EXPECT_EQ(summary[0].largest_dt, 1.0);
+}
+
+// Three damped Newton iterations never reach ‖g‖ < 1e-7: every dt of the ladder is tried and fails at step 1.
+TEST(TimestepBench, AFailingSolverTriesEverySmallerStep) {
+  sim::TimestepBenchOptions opt = small_study("newton-damped");
+  opt.max_iters = 3;
+  opt.min_dt = 0.25;
+  opt.window = 0.5;
+  const auto rows = sim::run_timestep_bench({shell_scene("drooping")}, opt);
+  ASSERT_EQ(rows.size(), 3u);
+  const double dts[] = {1.0, 0.5, 0.25};
+  const int steps[] = {1, 1, 2};
+  for (size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].time_step, dts[i]);
+    EXPECT_EQ(rows[i].steps, steps[i]);
+    EXPECT_FALSE(rows[i].passed);
+    EXPECT_EQ(rows[i].failed_step, 1);
+    EXPECT_EQ(rows[i].steps_run, 1);
+    EXPECT_EQ(rows[i].status, "max_iters");
+    EXPECT_EQ(rows[i].iterations, 3);
+  }
+  EXPECT_EQ(sim::timestep_bench_summary(rows)[0].largest_dt, 0.0);
+}
+
+// Damped Newton converges linearly (by 1 − α per iteration near the minimizer), so an iteration cap that is too
+// small for the large first step of the Drooping suffices once dt is small: the search stops at the first pass.
+TEST(TimestepBench, SearchStopsAtTheFirstPassingStep) {
+  sim::TimestepBenchOptions opt = small_study("newton-damped");
+  opt.max_iters = 60;
+  opt.window = 0.25;
+  const auto rows = sim::run_timestep_bench({shell_scene("drooping")}, opt);
+  ASSERT_GE(rows.size(), 2u);
+  EXPECT_FALSE(rows.front().passed);
+  EXPECT_TRUE(rows.back().passed) << rows.back().status;
+  for (size_t i = 0; i + 1 < rows.size(); ++i) EXPECT_FALSE(rows[i].passed) << rows[i].time_step;
+  EXPECT_EQ(sim::timestep_bench_summary(rows)[0].largest_dt, rows.back().time_step);
+  const std::string csv = sim::timestep_bench_csv(rows);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), static_cast<long>(rows.size()) + 1);
+}
+
+TEST(TimestepBench, RejectsSceneWithoutShellsAndBadOptions) {
+  sim::TimestepBenchOptions opt = small_study("tr-dogleg");
+  sim::Scene no_shells = shell_scene("trampoline");
+  no_shells.shells.clear();
+  EXPECT_THROW(sim::run_timestep_bench({no_shells}, opt), InputError);
+  opt.window = -1.0;
+  EXPECT_THROW(sim::run_timestep_bench({shell_scene("trampoline")}, opt), InputError);
+}
