@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <map>
 #include <cmath>
 
 namespace mgcloth::sim {
@@ -66,8 +67,14 @@ std::unique_ptr<ShellBody::Level> ShellBody::build_level(int index) const {
   lv->objective = std::make_unique<physics::Objective>(m.num_vertices());
   lv->shell = &lv->objective->add(std::make_unique<physics::ShellTerm>(*lv->surface, m_spec.material, m_gravity, m_spec.quadrature));
   lv->samples = &lv->objective->add(std::make_unique<physics::ShellSampleTerm>(m.num_vertices()));
-  build_boundary(*lv);
-  build_loads(*lv);
+  // Boundary conditions and loads are sampled where the finest level samples them and restricted through the
+  // composed S: they are linear in the control points, so a coarse state is then held exactly as its prolongation
+  // would be. (Sampled on the coarse surface itself, a coarse solution could bend its held edges between the few
+  // coarse samples; the Re-entrant corner's coarsest solution then cost 1.3 J of penalty once prolongated, and
+  // nested iteration had to discard it.)
+  const bool finest_level = index == m_hierarchy.num_levels() - 1;
+  build_boundary(finest_level ? *lv : finest(), *lv);
+  build_loads(finest_level ? *lv : finest(), *lv);
   lv->objective->finalize();
   return lv;
 }
@@ -250,16 +257,37 @@ std::vector<std::pair<Index, int>> ShellBody::select_segments(const Level& lv, c
   return out;
 }
 
-void ShellBody::build_boundary(Level& lv) const {
-  const Mat3X& rest = lv.mesh(*this).x;
-  const double beta = lv.beta;
-  const auto stencil_sample = [](const mesh::LimitStencil& st, int column, double c, const Vec3& b) {
-    physics::ShellSample s;
+physics::ShellSample ShellBody::sample_on(const Level& geo, const Level& lv, const mesh::LimitStencil& st, int column,
+                                          std::map<Index, std::vector<std::pair<Index, double>>>& rows) const {
+  physics::ShellSample s;
+  if (geo.index == lv.index) {
     for (Index k = 0; k < st.size(); ++k) {
       if (st.w(k, column) == 0.0) continue;
       s.points.push_back(st.points[k]);
       s.w.push_back(st.w(k, column));
     }
+    return s;
+  }
+  std::map<Index, double> combined;
+  for (Index k = 0; k < st.size(); ++k) {
+    if (st.w(k, column) == 0.0) continue;
+    auto it = rows.find(st.points[k]);
+    if (it == rows.end()) it = rows.emplace(st.points[k], control_point_on_level(st.points[k], lv.index)).first;
+    for (const auto& [i, w] : it->second) combined[i] += st.w(k, column) * w;
+  }
+  for (const auto& [i, w] : combined) {
+    s.points.push_back(i);
+    s.w.push_back(w);
+  }
+  return s;
+}
+
+void ShellBody::build_boundary(const Level& geo, Level& lv) const {
+  const Mat3X& rest = geo.mesh(*this).x;
+  const double beta = lv.beta;
+  std::map<Index, std::vector<std::pair<Index, double>>> rows;
+  const auto stencil_sample = [&](const mesh::LimitStencil& st, int column, double c, const Vec3& b) {
+    physics::ShellSample s = sample_on(geo, lv, st, column, rows);
     s.c = c;
     s.b = b;
     return s;
@@ -267,8 +295,8 @@ void ShellBody::build_boundary(Level& lv) const {
   for (size_t i = 0; i < m_spec.boundary.size(); ++i) {
     const ShellBoundarySpec& bc = m_spec.boundary[i];
     const std::string what = fmt::format("boundary[{}]", i);
-    for (const auto& [f, k] : select_segments(lv, bc.where, what))
-      for (const EdgeSample& e : edge_samples(lv, f, k)) {
+    for (const auto& [f, k] : select_segments(geo, bc.where, what))
+      for (const EdgeSample& e : edge_samples(geo, f, k)) {
         const Vec3 b = e.stencil.apply(rest, 0);
         const Index s = lv.samples->add(stencil_sample(e.stencil, 0, beta * e.ds, b));
         lv.targets.push_back({s, b, bc.displacement, bc.ramp_time});
@@ -276,7 +304,7 @@ void ShellBody::build_boundary(Level& lv) const {
         if (bc.type == "clamped") lv.samples->add(stencil_sample(e.stencil, e.cross, beta * e.ds, e.stencil.apply(rest, e.cross)));
       }
     for (const Vec2& p : bc.where.points) {
-      const mesh::LimitStencil st = locate(lv, p, what);
+      const mesh::LimitStencil st = locate(geo, p, what);
       const Vec3 b = st.apply(rest, 0);
       const Index s = lv.samples->add(stencil_sample(st, 0, beta, b));
       lv.targets.push_back({s, b, bc.displacement, bc.ramp_time});
@@ -301,34 +329,29 @@ void ShellBody::build_boundary(Level& lv) const {
   }
 }
 
-void ShellBody::build_loads(Level& lv) const {
-  const Mat3X& rest = lv.mesh(*this).x;
+void ShellBody::build_loads(const Level& geo, Level& lv) const {
+  const Mat3X& rest = geo.mesh(*this).x;
+  std::map<Index, std::vector<std::pair<Index, double>>> rows;
   const auto load_sample = [&](const mesh::LimitStencil& st, const Vec3& f, double ramp_time) {
-    physics::ShellSample s;
-    for (Index k = 0; k < st.size(); ++k) {
-      if (st.w(k, 0) == 0.0) continue;
-      s.points.push_back(st.points[k]);
-      s.w.push_back(st.w(k, 0));
-    }
-    lv.loads.push_back({lv.samples->add(s), Vec3::Zero(), f, ramp_time});
+    lv.loads.push_back({lv.samples->add(sample_on(geo, lv, st, 0, rows)), Vec3::Zero(), f, ramp_time});
   };
   for (size_t i = 0; i < m_spec.loads.size(); ++i) {
     const ShellLoadSpec& l = m_spec.loads[i];
     const std::string what = fmt::format("loads[{}]", i);
     if (l.type == "point") {
-      for (const Vec2& p : l.where.points) load_sample(locate(lv, p, what), l.force, l.ramp_time);
+      for (const Vec2& p : l.where.points) load_sample(locate(geo, p, what), l.force, l.ramp_time);
     } else if (l.type == "edge") {
-      for (const auto& [f, k] : select_segments(lv, l.where, what))
-        for (const EdgeSample& e : edge_samples(lv, f, k)) load_sample(e.stencil, e.ds * l.force, l.ramp_time);
+      for (const auto& [f, k] : select_segments(geo, l.where, what))
+        for (const EdgeSample& e : edge_samples(geo, f, k)) load_sample(e.stencil, e.ds * l.force, l.ramp_time);
     } else {
       // Pressure as a dead load along the reference normal: f = p n̄ dĀ at each Gauss point.
       std::vector<Vec2> pts;
       std::vector<double> wts;
       physics::square_gauss_rule(m_spec.quadrature, pts, wts);
       mesh::LimitStencil st;
-      for (Index f : lv.surface->real_faces())
+      for (Index f : geo.surface->real_faces())
         for (size_t g = 0; g < pts.size(); ++g) {
-          lv.surface->stencil(f, pts[g].x(), pts[g].y(), st);
+          geo.surface->stencil(f, pts[g].x(), pts[g].y(), st);
           const Vec3 m = st.apply(rest, 1).cross(st.apply(rest, 2));
           load_sample(st, wts[g] * l.pressure * m, l.ramp_time);
         }

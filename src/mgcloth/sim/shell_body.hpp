@@ -7,6 +7,7 @@
 #include <mgcloth/physics/shell_samples.hpp>
 #include <mgcloth/sim/shell_scene.hpp>
 
+#include <map>
 #include <memory>
 
 namespace mgcloth::sim {
@@ -93,8 +94,12 @@ class ShellBody {
   };
   const Level& finest() const { return *m_levels.back(); }
   std::unique_ptr<Level> build_level(int index) const;
-  void build_boundary(Level& lv) const;
-  void build_loads(Level& lv) const;
+  /// Boundary conditions and loads of `lv`, sampled on the surface of `geo` (lv itself, or the finest level, whose
+  /// samples are then restricted to lv's control points through the composed S).
+  void build_boundary(const Level& geo, Level& lv) const;
+  void build_loads(const Level& geo, Level& lv) const;
+  physics::ShellSample sample_on(const Level& geo, const Level& lv, const mesh::LimitStencil& st, int column,
+                                 std::map<Index, std::vector<std::pair<Index, double>>>& rows) const;
   /// Sets targets, loads, inertia and gravity of one level for the step (y: the level's inertial prediction).
   void prepare_level(Level& lv, double t_next, double h, double load_factor, const VecX& x, const VecX& y);
   /// Boundary segments (face, edge) of the selection on the level.

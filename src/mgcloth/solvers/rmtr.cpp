@@ -4,6 +4,7 @@
 #include <mgcloth/solvers/rmtr.hpp>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::solvers {
@@ -411,15 +412,23 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
       }
       m_start_gradient = nullptr;
     }
-    // The solution as a correction of the next level's start, kept only where it lowers that level's energy.
+    // The next level starts from the lowest-energy of: its own start; that start corrected by S (x_t − x_t⁰), which
+    // keeps the start's fine-scale content (a warm start's wrinkles); and S x_t, the coarse solution alone, which
+    // is what is left when that content does not move with a large coarse motion (it is not rotated with it).
     Level& U = *m_levels[static_cast<size_t>(t + 1)];
-    VecX s, trial;
+    VecX& xu = xs[static_cast<size_t>(t + 1)];
+    VecX s, corrected, replaced;
     U.S->apply(VecX(xt - x0s[static_cast<size_t>(t)]), s);
-    trial = xs[static_cast<size_t>(t + 1)] + s;
-    const double f_old = U.f->value(xs[static_cast<size_t>(t + 1)]), f_new = U.f->value(trial);
-    m_counters[static_cast<size_t>(t + 1)].energy_evaluations += 2;
-    logger().debug("rmtr nested level {}: {} cycles, prolongated start {:.6e} -> {:.6e}", top - t, cycles, f_old, f_new);
-    if (std::isfinite(f_new) && f_new < f_old) xs[static_cast<size_t>(t + 1)].swap(trial);
+    corrected = xu + s;
+    U.S->apply(xt, replaced);
+    const double f_old = U.f->value(xu), f_corrected = U.f->value(corrected), f_replaced = U.f->value(replaced);
+    m_counters[static_cast<size_t>(t + 1)].energy_evaluations += 3;
+    logger().debug("rmtr nested level {}: {} cycles to energy {:.6e}; next level's start {:.6e}, corrected {:.6e}, "
+                   "replaced {:.6e}", top - t, cycles, L.f->value(xt), f_old, f_corrected, f_replaced);
+    const double best = std::min({f_old, std::isfinite(f_corrected) ? f_corrected : kInf,
+                                  std::isfinite(f_replaced) ? f_replaced : kInf});
+    if (best == f_corrected && best < f_old) xu.swap(corrected);
+    else if (best == f_replaced && best < f_old) xu.swap(replaced);
   }
   m_top = top;
   x = xs[static_cast<size_t>(top)];
