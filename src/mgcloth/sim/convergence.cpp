@@ -454,6 +454,16 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
       diverged(err, {});
       result.summaries.push_back(summary);
       continue;
+    } catch (const InputError&) {
+      throw;
+    } catch (const Error& err) {
+      // A solver that cannot run on this problem (e.g. a smoother that needs what the hierarchy does not provide)
+      // is recorded as such; the other solvers' results are still measured and written.
+      logger().warn("{}: {}", spec.label, err.what());
+      summary.status = fmt::format("error: {}", err.what());
+      summary.final_error = kNaN;
+      result.summaries.push_back(summary);
+      continue;
     }
     summary.warmup_seconds = timer.seconds();
 

@@ -467,13 +467,8 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   base.max_seconds = stop.max_seconds;
   base.timer = &timer;
   base.project = problem.project;
-  if (m_params.initial == "nested") {
-    nested_start(x, base);
-    if (problem.project) problem.project(x);
-    m_radius = m_params.tr.delta0;
-  }
-
-  // The start point's energy and gradient, shared with the first pre-smoothing.
+  // The start point's energy and gradient, shared with the first pre-smoothing. The report's initial gradient, the
+  // relative target and the trace's first row are those of the given start, also with nested iteration.
   m_finest_energy = F.f->value(x);
   F.f->gradient(x, m_start);
   m_start_gradient = &m_start;
@@ -485,8 +480,22 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   rep.initial_grad_norm = gnorm;
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
   base.abs_grad = target;
-  m_finest_energies.push_back(m_finest_energy);
   if (trace) trace->push_back({0, m_finest_energy, gnorm, timer.ms(), 0.0});
+  if (m_params.initial == "nested") {
+    const VecX given = x;
+    nested_start(x, base);
+    if (problem.project) problem.project(x);
+    m_radius = m_params.tr.delta0;
+    m_finest_energy = F.f->value(x);
+    F.f->gradient(x, m_start);
+    ++m_counters.back().energy_evaluations;
+    ++m_counters.back().gradient_assemblies;
+    gnorm = m_start.norm();
+    check_finite(m_name, m_finest_energy, gnorm, 0);
+    // Where the coarse solutions take the V-cycles to start: a second row at iteration 0, at the time it took.
+    if (trace) trace->push_back({0, m_finest_energy, gnorm, timer.ms(), (x - given).norm()});
+  }
+  m_finest_energies.push_back(m_finest_energy);
   double last_df = kInf, last_dx = kInf, last_radius = 0.0;
   int cycle = 0;
   VecX previous;
