@@ -132,6 +132,7 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.stagnation_tol = r.number("stagnation_tol", p.stagnation_tol, 0.0, 1.0);
   p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
+  p.psd_hessian = r.choice("hessian", p.psd_hessian ? "projected" : "exact", {"exact", "projected"}) == "projected";
   return p;
 }
 Json write_trust_region(const TrustRegionParams& p) {
@@ -143,7 +144,8 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"delta_max", p.delta_max},
             {"stagnation_tol", p.stagnation_tol},
             {"stagnation_delta", p.stagnation_delta},
-            {"roundoff_tol", p.roundoff_tol}};
+            {"roundoff_tol", p.roundoff_tol},
+            {"hessian", p.psd_hessian ? "projected" : "exact"}};
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;

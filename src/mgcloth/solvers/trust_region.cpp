@@ -39,8 +39,8 @@ void LevelModel::gradient(const VecX& x, VecX& g) const {
   if (m_delta_h) g += *m_delta_h * VecX(x - m_x0);
 }
 
-void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H) const {
-  m_f->hessian(x, H, /*project_psd=*/false);
+void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
+  m_f->hessian(x, H, project_psd);
   if (!m_delta_h) return;
   if (!H.same_pattern(*m_delta_h)) throw_error("LevelModel: δH does not have the pattern of the objective's Hessian");
   for (Index k = 0; k < H.num_blocks(); ++k) H.block(k) += m_delta_h->block(k);
@@ -118,7 +118,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     if (res.status != "max_iters") break;
 
     if (!have_hessian) {
-      h.hessian(x, m_hessian);
+      h.hessian(x, m_hessian, p.psd_hessian);
       ++m_counters.hessian_assemblies;
       if (p.qp == TrQp::Dogleg) {
         const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();

@@ -41,6 +41,9 @@ struct TrustRegionParams {
   /// "stalled" (limiting accuracy). Relative to |h| alone, not max(1, |h|): cloth energies of 0.05 J would
   /// otherwise hit the guard while ρ is still accurate. Beyond the paper; 0 = off.
   double roundoff_tol = 1e-14;
+  /// The model's Hessian: exact (false, the paper) or with every element Hessian projected to positive semidefinite
+  /// (true, beyond the paper: the projected Newton of the cloth solvers, a convex model that needs no shift).
+  bool psd_hessian = false;
 };
 
 /// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
@@ -63,7 +66,7 @@ class LevelModel {
   bool has_linear_term() const { return m_delta_g.size() > 0; }
   double value(const VecX& x) const;
   void gradient(const VecX& x, VecX& g) const;
-  void hessian(const VecX& x, linalg::BlockMatrix3& H) const;
+  void hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd = false) const;
 
  private:
   const physics::Objective* m_f;
