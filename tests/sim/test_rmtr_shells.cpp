@@ -200,6 +200,8 @@ TEST(Rmtr, BadParametersNameTheField) {
   expect_error({{"pre_smoothing", 0}, {"post_smoothing", 0}}, "post_smoothing");
   expect_error({{"scaling", "newton"}}, "scaling");
   expect_error({{"initial", "coarse"}}, "initial");
+  expect_error({{"hessian", "approximate"}}, "hessian");
+  expect_error({{"coarsest_qp", "newton"}}, "coarsest_qp");
   expect_error({{"nested_rel_grad", 0.0}}, "nested_rel_grad");
   expect_error({{"mu1", 2}}, "mu1");  // unknown key
 }
