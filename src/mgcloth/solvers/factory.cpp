@@ -133,6 +133,7 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
   p.psd_hessian = r.choice("hessian", p.psd_hessian ? "projected" : "exact", {"exact", "projected"}) == "projected";
+  p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   return p;
 }
 Json write_trust_region(const TrustRegionParams& p) {
@@ -145,7 +146,8 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"stagnation_tol", p.stagnation_tol},
             {"stagnation_delta", p.stagnation_delta},
             {"roundoff_tol", p.roundoff_tol},
-            {"hessian", p.psd_hessian ? "projected" : "exact"}};
+            {"hessian", p.psd_hessian ? "projected" : "exact"},
+            {"shrink_from_step", p.shrink_from_step}};
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;

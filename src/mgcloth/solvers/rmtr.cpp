@@ -309,7 +309,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
         ++C.corrections_rejected;
       }
       // Line 12: Radius_update on this level, still bounded by the parent's radius.
-      radius = radius_update(p, corr.rho, radius);
+      radius = radius_update(p, corr.rho, radius, corr.step_norm);
       if (c.radius_cap) radius = c.radius_cap(x, radius);
     }
     logger().debug("rmtr level {}: coarse reduction {:.3e}, fine {:.3e}, rho {:+.3e}, |s| {:.3e} of {:.3e}, {}", l,
@@ -504,8 +504,10 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
       if (rep.status.empty()) rep.status = "max_iters";
       break;
     }
-    // Criterion (7.1), second part, on the finest level.
-    if (last_radius > m_params.tr.stagnation_delta &&
+    // Criterion (7.1), second part, on the finest level. A cycle whose every step and correction was rejected has
+    // not moved (|Δx| = 0) but says nothing about convergence; the round-off stall below covers the case where it
+    // cannot move.
+    if (last_radius > m_params.tr.stagnation_delta && last_dx > 0.0 &&
         (last_df < m_params.tr.stagnation_tol || last_dx < m_params.tr.stagnation_tol)) {
       rep.status = "stalled";
       break;

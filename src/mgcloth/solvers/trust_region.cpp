@@ -46,8 +46,8 @@ void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_ps
   for (Index k = 0; k < H.num_blocks(); ++k) H.block(k) += m_delta_h->block(k);
 }
 
-double radius_update(const TrustRegionParams& p, double rho, double radius) {
-  if (rho < p.eta1) return p.gamma1 * radius;
+double radius_update(const TrustRegionParams& p, double rho, double radius, double step_norm) {
+  if (rho < p.eta1) return p.gamma1 * (p.shrink_from_step ? std::min(radius, step_norm) : radius);
   if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
   return radius;
 }
@@ -186,7 +186,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     } else {
       // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
       it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
-      next = radius_update(p, it.rho, radius);
+      next = radius_update(p, it.rho, radius, it.step_norm);
     }
     double step_taken = 0.0;
     if (it.accepted) {

@@ -44,10 +44,14 @@ struct TrustRegionParams {
   /// The model's Hessian: exact (false, the paper) or with every element Hessian projected to positive semidefinite
   /// (true, beyond the paper: the projected Newton of the cloth solvers, a convex model that needs no shift).
   bool psd_hessian = false;
+  /// A rejected step shrinks the radius to γ1·min(Δ, ‖s‖) instead of γ1·Δ (beyond the paper's Alg. 4.3, line 2; the
+  /// usual practice): after an interior (Newton) step far inside a radius that has grown to 1e15, halving Δ alone
+  /// would need tens of rejected iterations before the radius constrains anything again.
+  bool shrink_from_step = false;
 };
 
 /// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
-double radius_update(const TrustRegionParams& p, double rho, double radius);
+double radius_update(const TrustRegionParams& p, double rho, double radius, double step_norm = kInf);
 
 /// The objective of one level, h(x) = f(x) + ⟨δg, x − x₀⟩ (Kopaničáková 2019, eq. 4.3): the coupling term
 /// makes the coarse gradient at x₀ equal the restricted fine gradient (eq. 4.5). Without δg, h = f. The Hessian
