@@ -8,7 +8,7 @@ SPEC (the RMTR configuration studied, e.g. rmtr@smoother=schwarz@smoother_sweeps
 Table 8, the --ls SPEC (the same with projection=least_squares). Where several files hold the same (scene, level,
 solver), the last one given wins. A cell is the iteration (V-cycle) count, with the wall time in seconds:
 `N` converged (‖g‖ < 1e-7), `N s` stalled by the second clause of (7.1) with ‖g‖/‖g₀‖ < 1e-5 (which the paper
-counts as convergence), `> N` not converged (cap, or a stall far from a minimum), `—` not run.
+counts as convergence), `> N, ‖g‖ = …` not converged (cap, or a stall far from a minimum), `—` not run.
 Work units (Tables 6-7) are eq. 7.3: the bench's work_assembly and work_qp columns for RMTR, and Hessian
 assemblies and QP calls for the single-level TR (W^L = 1 per call).
 """
@@ -57,7 +57,7 @@ def cell(r, with_time=True):
         return f"{n:,}{t}"
     if s == "stalled":
         return f"{n:,} s{t}"
-    return f"> {n:,}{t}, ‖g‖/‖g₀‖ = {float(r['rel_grad']):.1e}"
+    return f"> {n:,}{t}, ‖g‖ = {float(r['grad_norm']):.1e}"
 
 
 def main():
