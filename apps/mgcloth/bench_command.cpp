@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -66,8 +67,9 @@ struct TimestepArgs {
   std::vector<std::string> scenes;
   std::string solvers = "tr-dogleg,rmtr,newton-ls,newton-damped,linearized", out;
   int level = 3, max_iters = 0, threads = 0;
-  double max_dt = 1.0, min_dt = 1.0 / 64.0, window = 0.0, max_seconds = 0.0;
-  bool quiet = false, verbose = false;
+  double max_dt = 1.0, min_dt = 1.0 / 64.0, window = 0.0, max_seconds = 0.0, max_try_seconds = 0.0;
+  double stall_rel_grad = 1e-5, stall_abs_grad = 0.0;
+  bool resume = false, quiet = false, verbose = false;
 } g_step;
 
 struct ProjectionArgs {
@@ -360,6 +362,34 @@ int run_shells_command() {
   return 0;
 }
 
+/// The rows of an earlier run's timestep.json, when it measured what `opt` asks for: the same level, window, caps
+/// per solve and stall criterion (solvers, time steps and the try cap may differ; rows are matched one by one).
+std::vector<sim::TimestepBenchRow> resumable_rows(const fs::path& file, const sim::TimestepBenchOptions& opt) {
+  if (!fs::exists(file)) return {};
+  const Json j = load_json(file.string());
+  // A key that an older file lacks had its default then.
+  const auto check = [&](const char* key, double now, const char* option,
+                         double missing = std::numeric_limits<double>::quiet_NaN()) {
+    const double then = !j.contains(key)         ? missing
+                        : j.at(key).is_number() ? j.at(key).get<double>()
+                                                : std::numeric_limits<double>::quiet_NaN();
+    if (then != now)
+      throw_input_error("--resume: {} was written with {} = {}, this run has {}", file.string(), option,
+                        j.contains(key) ? j.at(key).dump() : "(none)", now);
+  };
+  check("level", opt.level, "--level");
+  check("window", opt.window, "--window");
+  check("max_iters", opt.max_iters, "--max-iters");
+  check("max_seconds", opt.max_seconds, "--max-seconds");
+  check("stall_rel_grad", opt.stall_rel_grad, "--stall-rel-grad");
+  check("stall_abs_grad", opt.stall_abs_grad, "--stall-abs-grad", 0.0);
+  try {
+    return sim::timestep_bench_rows(j);
+  } catch (const Json::exception& e) {
+    throw_input_error("--resume: {}: {}", file.string(), e.what());
+  }
+}
+
 int run_timestep_command() {
   sim::TimestepBenchOptions opt;
   if (g_step.level < 1 || g_step.level > 9) throw_input_error("--level: {} is out of range [1, 9]", g_step.level);
@@ -383,12 +413,22 @@ int run_timestep_command() {
   if (g_step.max_iters < 0) throw_input_error("--max-iters: must be at least 1, or 0 for the scenes' (got {})", g_step.max_iters);
   if (!(g_step.max_seconds >= 0.0) || std::isnan(g_step.max_seconds))
     throw_input_error("--max-seconds: must be a positive number of seconds, or 0 for no cap (got {})", g_step.max_seconds);
+  if (!(g_step.max_try_seconds >= 0.0) || std::isnan(g_step.max_try_seconds))
+    throw_input_error("--max-try-seconds: must be a positive number of seconds, or 0 for no cap (got {})",
+                      g_step.max_try_seconds);
+  if (!(g_step.stall_rel_grad >= 0.0 && g_step.stall_rel_grad < 1.0))
+    throw_input_error("--stall-rel-grad: must be in [0, 1) (got {})", g_step.stall_rel_grad);
+  if (!(g_step.stall_abs_grad >= 0.0) || !std::isfinite(g_step.stall_abs_grad))
+    throw_input_error("--stall-abs-grad: must be non-negative (got {})", g_step.stall_abs_grad);
   if (g_step.threads < 0) throw_input_error("--threads: must be non-negative (got {})", g_step.threads);
   opt.max_dt = g_step.max_dt;
   opt.min_dt = g_step.min_dt;
   opt.window = g_step.window;
   opt.max_iters = g_step.max_iters;
   opt.max_seconds = g_step.max_seconds;
+  opt.max_try_seconds = g_step.max_try_seconds;
+  opt.stall_rel_grad = g_step.stall_rel_grad;
+  opt.stall_abs_grad = g_step.stall_abs_grad;
   opt.threads = g_step.threads;
   std::vector<sim::Scene> scenes;
   for (const auto& f : g_step.scenes) {
@@ -398,6 +438,8 @@ int run_timestep_command() {
   }
   const fs::path out = g_step.out;
   prepare_out_dir(out);
+  const std::vector<sim::TimestepBenchRow> previous = g_step.resume ? resumable_rows(out / "timestep.json", opt)
+                                                                    : std::vector<sim::TimestepBenchRow>{};
   set_log_level(g_step.quiet);
   if (g_step.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every try: a study of an hour keeps what it has measured if it is stopped.
@@ -405,7 +447,7 @@ int run_timestep_command() {
     write_file_atomic(out / "timestep.csv", sim::timestep_bench_csv(rows));
     write_file_atomic(out / "timestep.json", sim::timestep_bench_json(rows, opt).dump(2) + "\n");
   };
-  const auto rows = sim::run_timestep_bench(scenes, opt, write);
+  const auto rows = sim::run_timestep_bench(scenes, opt, write, previous);
   write(rows);
   const auto summary = sim::timestep_bench_summary(rows);
   size_t width = 6;
@@ -505,6 +547,15 @@ void add_bench_command(CLI::App& app) {
                  "Simulated seconds per try (default: the scene's duration, at most 2 s)");
   ts->add_option("--max-iters", g_step.max_iters, "Iteration cap per solve (default: the scenes' solver.max_iters)");
   ts->add_option("--max-seconds", g_step.max_seconds, "Wall-time cap per solve, seconds (default: none)");
+  ts->add_option("--max-try-seconds", g_step.max_try_seconds,
+                 "Wall-time cap per (scene, solver, dt) try, checked between steps, seconds (default: none)");
+  ts->add_option("--stall-rel-grad", g_step.stall_rel_grad,
+                 "A solve stopped as stalled passes at |g| <= this times |g0| (or --stall-abs-grad)")
+      ->default_val(1e-5);
+  ts->add_option("--stall-abs-grad", g_step.stall_abs_grad,
+                 "A solve stopped as stalled passes at |g| <= this (the paper's 'in practice |g| <= 5e-5')")
+      ->default_val(0.0);
+  ts->add_flag("--resume", g_step.resume, "Keep the tries of an interrupted run with the same options in --out");
   ts->add_option("--threads,-j", g_step.threads, "Worker threads (default: all cores)");
   ts->add_flag("--quiet,-q", g_step.quiet, "No progress log");
   ts->add_flag("--verbose,-v", g_step.verbose, "Log solver details");

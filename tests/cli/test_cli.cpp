@@ -505,11 +505,21 @@ TEST_F(Cli, TimestepBenchWritesARowPerTriedStepAndRejectsBadInput) {
   summary >> shell >> dofs >> solver >> largest;
   EXPECT_EQ(dofs + " " + solver + " " + largest, "363 tr-dogleg 1") << r.out;
 
+  // Resumed with the same options, the try is taken from timestep.json; with other caps, refused.
+  r = run(fmt::format("bench timestep {} --level 2 --solvers tr-dogleg --window 1 -j 1 --resume -o {}", trampoline,
+                      out.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("taken from the earlier run"), std::string::npos) << r.out;
+  EXPECT_EQ(mgcloth::read_file(out / "timestep.csv"), table);
+
   const auto expect_error = [](const Result& res, const std::string& text) {
     EXPECT_EQ(res.code, 1) << res.out;
     EXPECT_NE(res.out.find(text), std::string::npos) << res.out;
     EXPECT_EQ(count_lines(res.out), 1) << res.out;
   };
+  expect_error(run(fmt::format("bench timestep {} --level 2 --solvers tr-dogleg --window 1 --max-seconds 5 --resume "
+                               "-o {}", trampoline, out.string())),
+               "--resume: " + (out / "timestep.json").string() + " was written with --max-seconds = 0");
   const std::string bad_out = " -o " + (dir / "bad").string();
   const std::string ts = "bench timestep " + trampoline + bad_out;
   expect_error(run(ts + " --min-dt 0"), "--min-dt: must be a positive");
@@ -517,6 +527,8 @@ TEST_F(Cli, TimestepBenchWritesARowPerTriedStepAndRejectsBadInput) {
   expect_error(run(ts + " --min-dt 2"), "--min-dt: 2 is larger than --max-dt");
   expect_error(run(ts + " --window -1"), "--window");
   expect_error(run(ts + " --max-seconds -1"), "--max-seconds");
+  expect_error(run(ts + " --max-try-seconds -1"), "--max-try-seconds");
+  expect_error(run(ts + " --stall-rel-grad 1"), "--stall-rel-grad: must be in [0, 1)");
   expect_error(run(ts + " --level 0"), "--level: 0 is out of range");
   expect_error(run(ts + " --solvers tr-dogleg,nonsense"), "unknown solver \"nonsense\"");
   expect_error(run(ts + " --solvers tr-dogleg,tr-dogleg"), "--solvers: \"tr-dogleg\" is listed twice");

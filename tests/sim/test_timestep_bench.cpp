@@ -45,6 +45,7 @@ TEST(TimestepBench, StallPassesOnlyAtTheLimitingAccuracy) {
   EXPECT_TRUE(sim::meets_criterion(r, 1e-5));
   r.grad_norm = 1e-2;
   EXPECT_FALSE(sim::meets_criterion(r, 1e-5));
+  EXPECT_TRUE(sim::meets_criterion(r, 1e-5, 5e-2));
   r.status = "max_iters";
   r.grad_norm = 1e-9;
   EXPECT_FALSE(sim::meets_criterion(r, 1e-5));
@@ -98,10 +99,10 @@ TEST(TimestepBench, AFailingSolverTriesEverySmallerStep) {
   EXPECT_EQ(sim::timestep_bench_summary(rows)[0].largest_dt, 0.0);
 }
 
-// Damped Newton converges linearly (by 1 − α per iteration near the minimizer), so an iteration cap that is too
-// small for the large first step of the Drooping suffices once dt is small: the search stops at the first pass.
+// Sixty line-search Newton iterations are too few for the Drooping's first step at dt = 1 (the cloth falls far), and
+// enough once dt is small: the search halves dt until a try passes, and stops there.
 TEST(TimestepBench, SearchStopsAtTheFirstPassingStep) {
-  sim::TimestepBenchOptions opt = small_study("newton-damped");
+  sim::TimestepBenchOptions opt = small_study("newton-ls");
   opt.max_iters = 60;
   opt.window = 0.25;
   const auto rows = sim::run_timestep_bench({shell_scene("drooping")}, opt);
@@ -112,6 +113,34 @@ TEST(TimestepBench, SearchStopsAtTheFirstPassingStep) {
   EXPECT_EQ(sim::timestep_bench_summary(rows)[0].largest_dt, rows.back().time_step);
   const std::string csv = sim::timestep_bench_csv(rows);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), static_cast<long>(rows.size()) + 1);
+}
+
+// An interrupted study resumes from its rows: the ones it has are taken as they are, a try that the try cap would
+// have cut is run again, and the cap fails a try between steps.
+TEST(TimestepBench, ResumesFromEarlierRowsAndCapsTries) {
+  sim::TimestepBenchOptions opt = small_study("tr-dogleg");
+  opt.window = 1.0;
+  const sim::Scene trampoline = shell_scene("trampoline");
+  std::vector<sim::TimestepBenchRow> previous = sim::run_timestep_bench({trampoline}, opt);
+  ASSERT_EQ(previous.size(), 1u);
+  previous[0].iterations = -7;  // marks the row: a rerun would count its iterations again
+  const auto round_trip = sim::timestep_bench_rows(sim::timestep_bench_json(previous, opt));
+  EXPECT_EQ(sim::run_timestep_bench({trampoline}, opt, {}, round_trip)[0].iterations, -7);
+
+  opt.max_try_seconds = 1e-9;  // the earlier try ran longer than this: run again
+  auto rows = sim::run_timestep_bench({trampoline}, opt, {}, previous);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_GT(rows[0].iterations, 0);
+  EXPECT_TRUE(rows[0].passed);  // one step: the first step always runs
+
+  opt.window = 2.0;
+  opt.min_dt = 1.0;
+  rows = sim::run_timestep_bench({trampoline}, opt);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_FALSE(rows[0].passed);
+  EXPECT_EQ(rows[0].status, "try_time_limit");
+  EXPECT_EQ(rows[0].failed_step, 2);
+  EXPECT_EQ(rows[0].steps_run, 1);
 }
 
 TEST(TimestepBench, RejectsSceneWithoutShellsAndBadOptions) {

@@ -18,8 +18,12 @@ void check_options(const TimestepBenchOptions& opt) {
     throw_input_error("window: must be a non-negative number of seconds (got {})", opt.window);
   if (opt.max_iters < 0) throw_input_error("max_iters: must be non-negative (got {})", opt.max_iters);
   if (!(opt.max_seconds >= 0.0)) throw_input_error("max_seconds: must be non-negative (got {})", opt.max_seconds);
+  if (!(opt.max_try_seconds >= 0.0))
+    throw_input_error("max_try_seconds: must be non-negative (got {})", opt.max_try_seconds);
   if (!(opt.stall_rel_grad >= 0.0 && opt.stall_rel_grad < 1.0))
     throw_input_error("stall_rel_grad: must be in [0, 1) (got {})", opt.stall_rel_grad);
+  if (!(opt.stall_abs_grad >= 0.0) || !std::isfinite(opt.stall_abs_grad))
+    throw_input_error("stall_abs_grad: must be non-negative (got {})", opt.stall_abs_grad);
   if (opt.level < 0 || opt.level > 9) throw_input_error("level: {} is out of range [0, 9]", opt.level);
   timestep_ladder(opt);
 }
@@ -57,6 +61,11 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
   row.status = "converged";
   Timer timer;
   for (int k = 1; k <= row.steps && row.failed_step == 0; ++k) {
+    if (k > 1 && opt.max_try_seconds > 0.0 && timer.seconds() >= opt.max_try_seconds) {
+      row.failed_step = k;
+      row.status = "try_time_limit";
+      break;
+    }
     ++row.steps_run;
     std::vector<StepStats> stats;
     try {
@@ -75,7 +84,7 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
       if (row.failed_step > 0) continue;
       row.grad_norm = r.grad_norm;
       row.initial_grad_norm = r.initial_grad_norm;
-      if (!meets_criterion(r, opt.stall_rel_grad)) {
+      if (!meets_criterion(r, opt.stall_rel_grad, opt.stall_abs_grad)) {
         row.failed_step = k;
         row.status = r.status;
       } else if (!r.converged) {
@@ -95,8 +104,9 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
 
 }  // namespace
 
-bool meets_criterion(const solvers::SolveReport& r, double stall_rel_grad) {
-  return r.converged || (r.status == "stalled" && r.grad_norm <= stall_rel_grad * r.initial_grad_norm);
+bool meets_criterion(const solvers::SolveReport& r, double stall_rel_grad, double stall_abs_grad) {
+  return r.converged ||
+         (r.status == "stalled" && r.grad_norm <= std::max(stall_rel_grad * r.initial_grad_norm, stall_abs_grad));
 }
 
 std::vector<double> timestep_ladder(const TimestepBenchOptions& opt) {
@@ -112,17 +122,33 @@ std::vector<double> timestep_ladder(const TimestepBenchOptions& opt) {
 }
 
 std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scenes, const TimestepBenchOptions& opt,
-                                                 const TimestepBenchProgress& on_row) {
+                                                 const TimestepBenchProgress& on_row,
+                                                 const std::vector<TimestepBenchRow>& previous) {
   check_options(opt);
   for (const Scene& s : scenes)
     if (s.shells.empty()) throw_input_error("{}: the scene has no shells", s.file);
   if (opt.threads > 0) set_num_threads(opt.threads);
   const std::vector<double> dts = timestep_ladder(opt);
   std::vector<TimestepBenchRow> rows;
+  // A try that ran longer than the try cap allows would have ended differently under it.
+  const auto earlier = [&](const Scene& base, const SolverSpec& spec, double dt) -> const TimestepBenchRow* {
+    for (const TimestepBenchRow& r : previous)
+      if (r.scene == base.file && r.solver == spec.label && r.time_step == dt &&
+          r.level == (opt.level > 0 ? opt.level : base.shells.front().level) && r.window == window_of(base, opt) &&
+          (opt.max_try_seconds <= 0.0 || r.wall_s < opt.max_try_seconds))
+        return &r;
+    return nullptr;
+  };
   for (const Scene& base : scenes)
     for (const SolverSpec& spec : opt.solvers)
       for (double dt : dts) {
-        rows.push_back(try_time_step(base, spec, dt, opt));
+        if (const TimestepBenchRow* r = earlier(base, spec, dt)) {
+          logger().info("{} {} dt = {:g}: taken from the earlier run ({})", r->shells, r->solver, dt,
+                        r->passed ? "passed" : r->status);
+          rows.push_back(*r);
+        } else {
+          rows.push_back(try_time_step(base, spec, dt, opt));
+        }
         if (on_row) on_row(rows);
         if (rows.back().passed) break;
       }
@@ -171,7 +197,9 @@ Json timestep_bench_json(const std::vector<TimestepBenchRow>& rows, const Timest
   j["window"] = opt.window;
   j["max_iters"] = opt.max_iters;
   j["max_seconds"] = opt.max_seconds;
+  j["max_try_seconds"] = opt.max_try_seconds;
   j["stall_rel_grad"] = opt.stall_rel_grad;
+  j["stall_abs_grad"] = opt.stall_abs_grad;
   j["threads"] = opt.threads > 0 ? opt.threads : num_threads();
   j["results"] = Json::array();
   for (const auto& r : rows)
@@ -188,6 +216,34 @@ Json timestep_bench_json(const std::vector<TimestepBenchRow>& rows, const Timest
                             {"largest_dt", s.largest_dt}, {"iterations", s.iterations}, {"wall_s", s.wall_s},
                             {"tries", s.tries}, {"total_wall_s", s.total_wall_s}});
   return j;
+}
+
+std::vector<TimestepBenchRow> timestep_bench_rows(const Json& json) {
+  std::vector<TimestepBenchRow> rows;
+  for (const Json& j : json.at("results")) {
+    TimestepBenchRow r;
+    j.at("scene").get_to(r.scene);
+    j.at("shells").get_to(r.shells);
+    j.at("solver").get_to(r.solver);
+    j.at("level").get_to(r.level);
+    j.at("dofs").get_to(r.dofs);
+    j.at("time_step").get_to(r.time_step);
+    j.at("window").get_to(r.window);
+    j.at("steps").get_to(r.steps);
+    j.at("steps_run").get_to(r.steps_run);
+    j.at("passed").get_to(r.passed);
+    j.at("failed_step").get_to(r.failed_step);
+    j.at("status").get_to(r.status);
+    j.at("message").get_to(r.message);
+    j.at("grad_norm").get_to(r.grad_norm);
+    j.at("initial_grad_norm").get_to(r.initial_grad_norm);
+    j.at("stalled_steps").get_to(r.stalled_steps);
+    j.at("iterations").get_to(r.iterations);
+    j.at("max_step_iterations").get_to(r.max_step_iterations);
+    j.at("wall_s").get_to(r.wall_s);
+    rows.push_back(std::move(r));
+  }
+  return rows;
 }
 
 }  // namespace mgcloth::sim
