@@ -363,8 +363,8 @@ void Rmtr::accumulate() {
 
 void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
   // Nested iteration (the F-cycle start of FMG, Gratton-Sartenaer-Toint 2008 §4): the problem of level t is the
-  // step rediscretized on its control mesh, without the coupling term of (4.3); its solution enters level t+1 as
-  // the correction S (x_t − x_t⁰), which keeps whatever fine-scale content the start had (a warm start's wrinkles).
+  // step rediscretized on its control mesh, without the coupling term of (4.3), and its solution seeds level t+1
+  // (how: at the end of the loop).
   const int top = static_cast<int>(m_levels.size()) - 1;
   std::vector<VecX> xs(static_cast<size_t>(top + 1));
   xs[static_cast<size_t>(top)] = x;
@@ -388,6 +388,7 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
     c.project = nullptr;
     c.trace = nullptr;
     int& cycles = m_nested_cycles[static_cast<size_t>(t)];
+    double f_end = f;
     if (t == 0) {
       LevelModel h(*L.f);
       c.metric = L.metric.get();
@@ -395,7 +396,9 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
       c.start_energy = &f;
       c.start_gradient = &g;
       double radius = m_params.tr.delta0;
-      cycles = L.tr->run(h, xt, radius, c).iterations;
+      const LocalTrResult r = L.tr->run(h, xt, radius, c);
+      cycles = r.iterations;
+      f_end = r.energy;
     } else {
       m_top = t;
       m_radius = m_params.tr.delta0;
@@ -411,6 +414,7 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
         if (m_finest_stalled && (xt - before).norm() == 0.0) break;
       }
       m_start_gradient = nullptr;
+      f_end = m_finest_energy;
     }
     // The next level starts from the lowest-energy of: its own start; that start corrected by S (x_t − x_t⁰), which
     // keeps the start's fine-scale content (a warm start's wrinkles); and S x_t, the coarse solution alone, which
@@ -424,7 +428,7 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
     const double f_old = U.f->value(xu), f_corrected = U.f->value(corrected), f_replaced = U.f->value(replaced);
     m_counters[static_cast<size_t>(t + 1)].energy_evaluations += 3;
     logger().debug("rmtr nested level {}: {} cycles to energy {:.6e}; next level's start {:.6e}, corrected {:.6e}, "
-                   "replaced {:.6e}", top - t, cycles, L.f->value(xt), f_old, f_corrected, f_replaced);
+                   "replaced {:.6e}", top - t, cycles, f_end, f_old, f_corrected, f_replaced);
     const double best = std::min({f_old, std::isfinite(f_corrected) ? f_corrected : kInf,
                                   std::isfinite(f_replaced) ? f_replaced : kInf});
     if (best == f_corrected && best < f_old) xu.swap(corrected);
