@@ -133,7 +133,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       if (p.qp == TrQp::Exact) {
         try {
           m_exact.prepare(m_hessian, m_g, control.metric);
-        } catch (const Error& e) {
+        } catch (const SolveError& e) {  // a failed decomposition; a level too large for it stays a usage Error
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
         }
       }
