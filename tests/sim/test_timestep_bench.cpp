@@ -99,6 +99,25 @@ TEST(TimestepBench, AFailingSolverTriesEverySmallerStep) {
   EXPECT_EQ(sim::timestep_bench_summary(rows)[0].largest_dt, 0.0);
 }
 
+// RMTR needs two levels and a level-1 shell has one: that solver's row says so, once (a smaller step cannot help),
+// and the study goes on to the next solver instead of ending.
+TEST(TimestepBench, ASolverThatCannotRunIsRecordedAndTheStudyGoesOn) {
+  sim::TimestepBenchOptions opt = small_study("rmtr,tr-dogleg");
+  opt.window = 1.0;
+  const auto rows = sim::run_timestep_bench({shell_scene("trampoline")}, opt);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].solver, "rmtr");
+  EXPECT_EQ(rows[0].status, "error");
+  EXPECT_FALSE(rows[0].passed);
+  EXPECT_NE(rows[0].message.find("two levels"), std::string::npos) << rows[0].message;
+  EXPECT_EQ(rows[1].solver, "tr-dogleg");
+  EXPECT_TRUE(rows[1].passed) << rows[1].status;
+  const auto summary = sim::timestep_bench_summary(rows);
+  ASSERT_EQ(summary.size(), 2u);
+  EXPECT_EQ(summary[0].largest_dt, 0.0);
+  EXPECT_EQ(summary[1].largest_dt, 1.0);
+}
+
 // Sixty line-search Newton iterations are too few for the Drooping's first step at dt = 1 (the cloth falls far), and
 // enough once dt is small: the search halves dt until a try passes, and stops there.
 TEST(TimestepBench, SearchStopsAtTheFirstPassingStep) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace mgcloth::sim {
 
@@ -53,7 +54,21 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
   row.steps = steps_for(row.window, dt);
   scene.frames = row.steps;
   row.level = scene.shells.front().level;
-  Simulator sim(scene);
+  std::unique_ptr<Simulator> owned;
+  try {
+    owned = std::make_unique<Simulator>(scene);
+  } catch (const InputError&) {
+    throw;
+  } catch (const Error& e) {
+    // A solver that cannot run on this problem (one that needs a hierarchy the scene does not give) is recorded,
+    // and the study goes on with the other solvers.
+    row.failed_step = 1;
+    row.status = "error";
+    row.message = e.what();
+    logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
+    return row;
+  }
+  Simulator& sim = *owned;
   for (const auto& sh : sim.shells()) {
     row.shells += (row.shells.empty() ? "" : "+") + sh->name();
     row.dofs += static_cast<Index>(sh->x().size());
@@ -75,6 +90,14 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
       row.failed_step = k;
       row.status = "diverged";
       row.message = e.what();
+      break;
+    } catch (const InputError&) {
+      throw;
+    } catch (const Error& e) {
+      row.failed_step = k;
+      row.status = "error";
+      row.message = e.what();
+      logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
       break;
     }
     int step_iterations = 0;
@@ -150,7 +173,8 @@ std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scene
           rows.push_back(try_time_step(base, spec, dt, opt));
         }
         if (on_row) on_row(rows);
-        if (rows.back().passed) break;
+        // A smaller step does not make a solver that cannot run on the problem able to.
+        if (rows.back().passed || rows.back().status == "error") break;
       }
   return rows;
 }

@@ -176,7 +176,7 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
            : s == "schwarz"      ? TrQp::Schwarz
                                  : TrQp::SteihaugCg;
   };
-  p.smoother_qp = parse_qp(r.choice("smoother", qp_name(p.smoother_qp), {"stcg", "dogleg", "gauss_seidel", "schwarz"}));
+  p.smoother_qp = parse_qp(r.choice("smoother", qp_name(p.smoother_qp), {"stcg", "dogleg", "exact", "gauss_seidel", "schwarz"}));
   p.tr.gs_sweeps = r.integer("smoother_sweeps", p.tr.gs_sweeps, 1, 1000);
   p.coarsest_qp = parse_qp(r.choice("coarsest_qp", qp_name(p.coarsest_qp), {"dogleg", "stcg", "exact"}));
   p.levels = r.integer("levels", p.levels, 0, 20);
@@ -190,6 +190,7 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.nested_rel_grad = r.number("nested_rel_grad", p.nested_rel_grad, 0.0, 1.0);
   if (!(p.nested_rel_grad > 0.0 && p.nested_rel_grad < 1.0)) r.fail("nested_rel_grad", "must lie in (0, 1)");
   p.nested_max_cycles = r.integer("nested_max_cycles", p.nested_max_cycles, 1, 1'000'000);
+  p.coarse_start = r.choice("coarse_start", p.coarse_start, {"projection", "best"});
   return p;
 }
 Json write_rmtr(const RmtrParams& p) {
@@ -213,6 +214,7 @@ Json write_rmtr(const RmtrParams& p) {
   j["initial"] = p.initial;
   j["nested_rel_grad"] = p.nested_rel_grad;
   j["nested_max_cycles"] = p.nested_max_cycles;
+  j["coarse_start"] = p.coarse_start;
   return j;
 }
 

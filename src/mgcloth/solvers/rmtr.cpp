@@ -21,6 +21,7 @@ struct Rmtr::Level {
   std::unique_ptr<linalg::GalerkinProduct> hessian_rap;
   linalg::BlockMatrix3 model_hessian, galerkin, delta_h;
   std::unique_ptr<LocalTrustRegion> tr;
+  VecX last_end;  ///< as the level below: where its last visit of this solve ended (coarse_start "best")
   double norm(const VecX& s) const { return metric ? metric->norm(s) : s.norm(); }
 };
 
@@ -34,6 +35,8 @@ Rmtr::Rmtr(RmtrParams params, std::string name) : m_params(std::move(params)), m
   if (m_params.projection != "reverse_subdivision" && m_params.projection != "least_squares")
     throw_error("{}: projection must be \"reverse_subdivision\" or \"least_squares\" (got \"{}\")", m_name,
                 m_params.projection);
+  if (m_params.coarse_start != "projection" && m_params.coarse_start != "best")
+    throw_error("{}: coarse_start must be \"projection\" or \"best\" (got \"{}\")", m_name, m_params.coarse_start);
 }
 
 Rmtr::~Rmtr() = default;
@@ -273,6 +276,17 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     VecX gc, xc0;
     L.S->apply_transpose(L.tr->gradient(), gc);
     L.project(x, xc0);
+    Level& Lc = *m_levels[static_cast<size_t>(l - 1)];
+    if (m_params.coarse_start == "best" && Lc.last_end.size() == xc0.size()) {
+      // Any x₀ keeps first-order consistency (4.5), the correction being S(x − x₀); the lower coarse energy is the
+      // start whose model round-off does not swamp.
+      const double e_proj = Lc.f->value(xc0), e_kept = Lc.f->value(Lc.last_end);
+      m_counters[static_cast<size_t>(l - 1)].energy_evaluations += 2;
+      if (e_kept < e_proj || !std::isfinite(e_proj)) {
+        xc0 = Lc.last_end;
+        ++m_counters[static_cast<size_t>(l - 1)].starts_kept;
+      }
+    }
     VecX xc = xc0;
     const linalg::BlockMatrix3* coarse_galerkin = nullptr;
     if (m_params.coarse_model == "second_order") {
@@ -285,6 +299,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
       coarse_galerkin = &L.galerkin;
     }
     const CycleResult rc = visit(l - 1, xc, &gc, coarse_galerkin, radius, base);
+    if (m_params.coarse_start == "best") Lc.last_end = xc;
     RmtrCorrection corr;
     corr.level = l;
     corr.coarse_reduction = rc.h_start - rc.h_end;
@@ -455,7 +470,10 @@ double Rmtr::work_units_qp() const {
 SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   Timer timer;
   setup(problem);
-  for (auto& lv : m_levels) lv->tr->reset();
+  for (auto& lv : m_levels) {
+    lv->tr->reset();
+    lv->last_end.resize(0);  // a previous solve's states belong to another time step
+  }
   m_counters.assign(m_levels.size(), {});
   m_corrections.clear();
   m_finest_energies.clear();
@@ -554,6 +572,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     rep.counters.push_back({fmt::format("level{}_qp_calls", k), c.qp_calls});
     rep.counters.push_back({fmt::format("level{}_cg_iterations", k), static_cast<double>(c.cg_iterations)});
     rep.counters.push_back({fmt::format("level{}_radius_exhausted", k), c.radius_exhausted});
+    if (m_params.coarse_start == "best" && k > 0) rep.counters.push_back({fmt::format("level{}_starts_kept", k), c.starts_kept});
   }
   m_start_gradient = nullptr;
   return rep;

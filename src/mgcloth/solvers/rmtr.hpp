@@ -49,6 +49,11 @@ struct RmtrParams {
   double nested_rel_grad = 1e-3;
   /// ... or for at most this many V-cycles (Local_TR iterations on the coarsest level: 100 times as many).
   int nested_max_cycles = 200;
+  /// The coarse start x^{l-1}_0 (beyond the paper): "projection" (P x, eq. 4.6) or "best" (P x or the level's own
+  /// iterate where its last visit ended, whichever has the lower coarse energy). In large motion P x of a
+  /// wrinkled fine state can have a coarse energy of 1e20 J and more (the woven material's exponential stiffening
+  /// of the strains the projection introduces), where round-off leaves the coarse model nothing to resolve.
+  std::string coarse_start = "projection";
 };
 
 /// Work on one level, accumulated over a solve.
@@ -64,6 +69,7 @@ struct RmtrLevelCounters {
   int corrections_accepted = 0;    ///< coarse corrections from the level below accepted by eq. 4.11
   int corrections_rejected = 0;
   int radius_exhausted = 0;        ///< visits that ended because the fine radius was used up (Alg. 4.3)
+  int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
 };
 
 /// One coarse correction's test (eq. 4.11), for tests and diagnostics.
