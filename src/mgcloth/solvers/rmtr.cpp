@@ -373,6 +373,7 @@ void Rmtr::accumulate() {
     C.cg_iterations += t.cg_iterations;
     C.accepted += t.accepted;
     C.rejected += t.rejected;
+    C.cholmod_fallbacks += t.cholmod_fallbacks;
   }
 }
 
@@ -573,6 +574,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     rep.counters.push_back({fmt::format("level{}_cg_iterations", k), static_cast<double>(c.cg_iterations)});
     rep.counters.push_back({fmt::format("level{}_radius_exhausted", k), c.radius_exhausted});
     if (m_params.coarse_start == "best" && k > 0) rep.counters.push_back({fmt::format("level{}_starts_kept", k), c.starts_kept});
+    rep.counters.push_back({fmt::format("level{}_cholmod_fallbacks", k), c.cholmod_fallbacks});
   }
   m_start_gradient = nullptr;
   return rep;

@@ -70,6 +70,7 @@ struct RmtrLevelCounters {
   int corrections_rejected = 0;
   int radius_exhausted = 0;        ///< visits that ended because the fine radius was used up (Alg. 4.3)
   int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
+  int cholmod_fallbacks = 0;       ///< dogleg steps whose Hessian needed a shift H + λI (it was indefinite)
 };
 
 /// One coarse correction's test (eq. 4.11), for tests and diagnostics.
