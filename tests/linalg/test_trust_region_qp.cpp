@@ -274,6 +274,29 @@ TEST(TrustRegionQp, ShiftedFactorizationOfASpdMatrixNeedsNoShift) {
   EXPECT_THROW(factorize_shifted(chol, bad), SolveError);
 }
 
+// The decade ladder overshoots the smallest shift that factorizes by up to 10×; b geometric bisections bring it
+// within 10^(2^-b) of that shift, and the solver is left holding the factor of the shift returned.
+TEST(TrustRegionQp, ShiftBisectionsNarrowTheShiftToTheSmallestThatFactorizes) {
+  const BlockMatrix3 H = random_symmetric(20, 9, 14.0);
+  const double needed = -eigenvalues(H).minCoeff();
+  ASSERT_GT(needed, 0.0);
+  CholmodSolver ladder, narrowed;
+  const auto f0 = factorize_shifted(ladder, H);
+  const auto f4 = factorize_shifted(narrowed, H, 40, 0.0, 4);
+  EXPECT_GT(f0.shift, needed);
+  EXPECT_LE(f0.shift, 10.0 * needed);
+  EXPECT_GT(f4.shift, needed);
+  EXPECT_LE(f4.shift, std::pow(10.0, 1.0 / 16.0) * needed * (1.0 + 1e-9));
+  EXPECT_LE(f4.shift, f0.shift);
+  EXPECT_LE(f4.attempts, f0.attempts + 5);
+  const VecX b = random_vector(60, 4);
+  VecX x;
+  narrowed.solve(b, x);
+  VecX Hx;
+  H.multiply(x, Hx);
+  EXPECT_LT((Hx + f4.shift * x - b).norm(), 1e-8 * b.norm() * (1.0 + x.norm()));
+}
+
 TEST(TrustRegionQp, ZeroGradientGivesAZeroStep) {
   const auto c = cases().front();
   const VecX zero = VecX::Zero(c.g.size());

@@ -235,5 +235,6 @@ TEST(Rmtr, BadParametersNameTheField) {
   expect_error({{"coarsest_qp", "newton"}}, "coarsest_qp");
   expect_error({{"nested_rel_grad", 0.0}}, "nested_rel_grad");
   expect_error({{"coarse_start", "previous"}}, "coarse_start");
+  expect_error({{"shift_bisections", -1}}, "shift_bisections");
   expect_error({{"mu1", 2}}, "mu1");  // unknown key
 }

@@ -256,7 +256,8 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
   return out;
 }
 
-ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts, double start) {
+ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts, double start,
+                                       int bisections) {
   // CHOLMOD "factorizes" a matrix with NaN entries (its pivot tests compare false) and the solve returns NaN.
   for (const Mat3& b : H.blocks())
     if (!b.allFinite()) throw SolveError("factorize_shifted: the matrix has a non-finite entry");
@@ -269,12 +270,34 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
   // Successive Hessians of one solve need similar shifts: starting a decade below the last one saves most of the
   // failed factorizations of a search from 1e-8·max|diag| each time.
   const double first = std::max(1e-8 * scale, start > 0.0 ? 0.1 * start : 0.0);
+  double failed = 0.0;  // the largest shift known not to factorize (0: only H itself)
   for (double shift = first; f.attempts < max_attempts; shift *= 10.0) {
     ++f.attempts;
     if (solver.factorize(H, shift)) {
       f.shift = shift;
+      if (bisections <= 0) return f;
+      // The decade ladder can overshoot the smallest working shift 10-fold, and the step of H + λI is then as
+      // much shorter in the soft directions; bisecting on log λ recovers most of that.
+      double lo = failed > 0.0 ? failed : 0.1 * shift;
+      bool holds = true;  // the solver holds the factor of f.shift
+      for (int b = 0; b < bisections; ++b) {
+        const double mid = std::sqrt(lo * f.shift);
+        ++f.attempts;
+        if (solver.factorize(H, mid)) {
+          f.shift = mid;
+          holds = true;
+        } else {
+          lo = mid;
+          holds = false;
+        }
+      }
+      if (!holds) {
+        ++f.attempts;
+        if (!solver.factorize(H, f.shift)) throw SolveError("factorize_shifted: a shift that factorized no longer does");
+      }
       return f;
     }
+    failed = shift;
   }
   throw SolveError(fmt::format("factorize_shifted: H + λI not positive definite after {} attempts (λ up to {:.3e})",
                                f.attempts, first * std::pow(10.0, f.attempts - 2)));
@@ -298,7 +321,7 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* met
   VecX Hv;
   H.multiply(m_y, Hv);
   m_gHg = m_y.dot(Hv);
-  const auto f = factorize_shifted(m_cholmod, H, 40, m_shift);
+  const auto f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections);
   m_factorizations += f.attempts;
   m_shift = f.shift;
   if (f.shift > 0.0) ++m_fallbacks;

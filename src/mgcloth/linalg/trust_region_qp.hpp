@@ -102,8 +102,11 @@ struct ShiftedFactorization {
 /// Factorizes H, or H + λI when CHOLMOD reports H not positive definite, with λ from max(1e-8·max|diag H|,
 /// start / 10), then ×10 per failed attempt, until the factorization succeeds (`start`: the shift a previous,
 /// similar matrix needed; 0 for none). Throws SolveError after `max_attempts` failures.
+/// `bisections` > 0 then narrows λ between the last failed and the first successful shift by that many
+/// geometric bisections (each one factorization, plus one where the last one failed), so that λ is within a
+/// factor 10^(2^-bisections) of the smallest shift that factorizes.
 ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts = 40,
-                                       double start = 0.0);
+                                       double start = 0.0, int bisections = 0);
 
 /// Powell's dogleg (Nocedal-Wright §4.1) on the exact Hessian. prepare() factorizes once per point x and computes
 /// the Cauchy and Newton points; step() then returns the dogleg point for any radius without refactoring, so a
@@ -118,6 +121,8 @@ class Dogleg {
  public:
   void prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric = nullptr);
   QpResult step(double delta) const;
+  /// Geometric bisections of the shift of an indefinite H (factorize_shifted); 0: the first decade that works.
+  void set_shift_bisections(int n) { m_bisections = n; }
 
   /// Numeric factorizations done by every prepare() so far (step() does none).
   int factorizations() const { return m_factorizations; }
@@ -133,6 +138,7 @@ class Dogleg {
  private:
   /// Model decrease −(gᵀs + ½ sᵀHs) of s = a·y + b·p_B, from the scalar products computed in prepare().
   double decrease(double a, double b) const;
+  int m_bisections = 0;
 
   CholmodSolver m_cholmod;
   const NormMetric* m_metric = nullptr;

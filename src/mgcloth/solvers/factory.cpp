@@ -134,6 +134,7 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
   p.psd_hessian = r.choice("hessian", p.psd_hessian ? "projected" : "exact", {"exact", "projected"}) == "projected";
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
+  p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
   return p;
 }
 Json write_trust_region(const TrustRegionParams& p) {
@@ -147,7 +148,8 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"stagnation_delta", p.stagnation_delta},
             {"roundoff_tol", p.roundoff_tol},
             {"hessian", p.psd_hessian ? "projected" : "exact"},
-            {"shrink_from_step", p.shrink_from_step}};
+            {"shrink_from_step", p.shrink_from_step},
+            {"shift_bisections", p.shift_bisections}};
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;

@@ -123,6 +123,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       if (p.qp == TrQp::Dogleg) {
         const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
         try {
+          m_dogleg.set_shift_bisections(p.shift_bisections);
           m_dogleg.prepare(m_hessian, m_g, control.metric);
         } catch (const SolveError& e) {
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));

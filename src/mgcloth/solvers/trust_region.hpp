@@ -44,6 +44,8 @@ struct TrustRegionParams {
   /// The model's Hessian: exact (false, the paper) or with every element Hessian projected to positive semidefinite
   /// (true, beyond the paper: the projected Newton of the cloth solvers, a convex model that needs no shift).
   bool psd_hessian = false;
+  /// Dogleg: geometric bisections of the shift λ where H is indefinite (0: the first decade that factorizes).
+  int shift_bisections = 0;
   /// A rejected step shrinks the radius to γ1·min(Δ, ‖s‖) instead of γ1·Δ (beyond the paper's Alg. 4.3, line 2; the
   /// usual practice): after an interior (Newton) step far inside a radius that has grown to 1e15, halving Δ alone
   /// would need tens of rejected iterations before the radius constrains anything again.
