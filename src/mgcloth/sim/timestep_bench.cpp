@@ -54,18 +54,21 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
   row.steps = steps_for(row.window, dt);
   scene.frames = row.steps;
   row.level = scene.shells.front().level;
+  // A solver that cannot run on this problem (one that needs a hierarchy the scene does not give) is recorded,
+  // and the study goes on with the other solvers.
+  const auto cannot_run = [&](int step, const Error& e) {
+    row.failed_step = step;
+    row.status = "error";
+    row.message = e.what();
+    logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
+  };
   std::unique_ptr<Simulator> owned;
   try {
     owned = std::make_unique<Simulator>(scene);
   } catch (const InputError&) {
     throw;
   } catch (const Error& e) {
-    // A solver that cannot run on this problem (one that needs a hierarchy the scene does not give) is recorded,
-    // and the study goes on with the other solvers.
-    row.failed_step = 1;
-    row.status = "error";
-    row.message = e.what();
-    logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
+    cannot_run(1, e);
     return row;
   }
   Simulator& sim = *owned;
@@ -94,10 +97,7 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
     } catch (const InputError&) {
       throw;
     } catch (const Error& e) {
-      row.failed_step = k;
-      row.status = "error";
-      row.message = e.what();
-      logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
+      cannot_run(k, e);
       break;
     }
     int step_iterations = 0;
