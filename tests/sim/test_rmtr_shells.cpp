@@ -212,6 +212,40 @@ TEST(Rmtr, ExactTrustRegionSmootherReachesTheSameMinimizer) {
   EXPECT_LT((ml.x - tr.x).lpNorm<Eigen::Infinity>(), 1e-5);
 }
 
+// The Drape's held corners move in its first step, so the projection of the start onto the coarsest level has a
+// penalty gradient of 1e4-1e7 (β = h⁻⁵ of the finest level). Relative to that the coarsest nested solve used to stop
+// after two steps, far from its minimizer: the middle level of the 1,083-dof Drape then needed 185 V-cycles and
+// handed the finest level a start at −1.820 J. Solved to the finest level's target, the coarsest level takes the
+// middle one to its minimizer in 60 cycles, and the finest level starts at −1.850 J (it ends at −1.904 J).
+TEST(Rmtr, NestedIterationSolvesTheCoarsestLevelWhateverItsStartGradient) {
+  const sim::Scene scene = shell_scene("drape", 3);
+  const Json params{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}};
+  const Solved nested = solve_first_step(scene, "rmtr", params, 0);
+  EXPECT_EQ(nested.report.iterations, 0);
+  EXPECT_LT(nested.report.energy, -1.84) << "energy after nested iteration";
+  double coarsest = -1.0, middle = -1.0;
+  for (const auto& [k, v] : nested.report.counters) {
+    if (k == "level2_nested_cycles") coarsest = v;
+    if (k == "level1_nested_cycles") middle = v;
+  }
+  EXPECT_GT(coarsest, 10.0) << "the coarsest nested solve stopped after a few steps";
+  EXPECT_GE(middle, 1.0);
+  EXPECT_LT(middle, 120.0);
+}
+
+// shift "radius": the dogleg's λ of an indefinite Hessian from the secular equation ‖(H + λI)⁻¹g‖ = Δ. The same
+// hanging state of the Drooping as with the factorization's λ, and more factorizations than Hessians.
+TEST(Rmtr, RadiusShiftReachesTheHangingState) {
+  const sim::Scene scene = shell_scene("drooping", 2);
+  const Solved ml = solve_first_step(
+      scene, "rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}, {"shift", "radius"}},
+      150);
+  ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles, |g| = "
+                                   << ml.report.grad_norm;
+  EXPECT_LT(ml.report.grad_norm, 1e-7);
+  EXPECT_NEAR(ml.report.energy, -0.524, 2e-3);
+}
+
 TEST(Rmtr, BadParametersNameTheField) {
   const auto expect_error = [](const Json& params, const std::string& field) {
     solvers::SolverConfig c;
@@ -236,5 +270,7 @@ TEST(Rmtr, BadParametersNameTheField) {
   expect_error({{"nested_rel_grad", 0.0}}, "nested_rel_grad");
   expect_error({{"coarse_start", "previous"}}, "coarse_start");
   expect_error({{"shift_bisections", -1}}, "shift_bisections");
+  expect_error({{"shift", "exact"}}, "shift");
+  expect_error({{"nested_energy_tol", -0.1}}, "nested_energy_tol");
   expect_error({{"mu1", 2}}, "mu1");  // unknown key
 }

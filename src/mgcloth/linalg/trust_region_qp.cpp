@@ -264,6 +264,7 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
   ShiftedFactorization f;
   ++f.attempts;
   if (solver.factorize(H, 0.0)) return f;
+  f.failed = 0.0;
   double scale = 0.0;
   for (Index i = 0; i < H.rows(); ++i) scale = std::max(scale, H.block(H.diagonal(i)).diagonal().cwiseAbs().maxCoeff());
   if (scale == 0.0) scale = 1.0;
@@ -275,6 +276,7 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
     ++f.attempts;
     if (solver.factorize(H, shift)) {
       f.shift = shift;
+      f.failed = failed;
       if (bisections <= 0) return f;
       // The decade ladder can overshoot the smallest working shift 10-fold, and the step of H + λI is then as
       // much shorter in the soft directions; bisecting on log λ recovers most of that.
@@ -288,6 +290,7 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
           holds = true;
         } else {
           lo = mid;
+          f.failed = mid;
           holds = false;
         }
       }
@@ -306,6 +309,8 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
 void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric) {
   check_metric(metric, static_cast<Index>(g.size()), "Dogleg::prepare");
   m_metric = metric;
+  m_H = &H;
+  m_tried.clear();
   // In ‖·‖_M the first leg runs along −y = −M⁻¹g. Since My = g, every M-inner product step() needs is one of
   // the model's scalars already: ‖y‖²_M = gᵀy, yᵀMp_B = gᵀp_B; only ‖p_B‖_M costs an M product.
   if (metric) metric->solve(g, m_y);
@@ -318,21 +323,98 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* met
     m_gHg = m_gp = m_gHp = m_pHp = m_newton_norm = 0.0;
     return;
   }
+  m_g = g;
   VecX Hv;
   H.multiply(m_y, Hv);
   m_gHg = m_y.dot(Hv);
   const auto f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections);
   m_factorizations += f.attempts;
-  m_shift = f.shift;
   if (f.shift > 0.0) ++m_fallbacks;
-  m_cholmod.solve(-g, m_newton);
+  m_factor_holds = true;
+  if (f.failed >= 0.0) m_tried.emplace_back(f.failed, kInf);
+  const bool finite = newton_point(f.shift, true);
+  if (f.shift > 0.0) m_tried.emplace_back(f.shift, finite ? m_newton_norm : kInf);
+}
+
+bool Dogleg::newton_point(double shift, bool keep_overflow) {
+  VecX p;
+  m_cholmod.solve(-m_g, p);
+  const bool finite = p.allFinite();
+  if (!finite && !keep_overflow) return false;
   // A nearly singular H + λI can overflow the solve; the dogleg then degenerates to the Cauchy point.
-  if (!m_newton.allFinite()) m_newton.setZero();
-  m_gp = g.dot(m_newton);
-  H.multiply(m_newton, Hv);
+  if (!finite) p.setZero();
+  set_newton(std::move(p), shift);
+  return finite;
+}
+
+void Dogleg::set_newton(VecX p, double shift) {
+  m_newton = std::move(p);
+  m_shift = shift;
+  VecX Hv;
+  m_gp = m_g.dot(m_newton);
+  m_H->multiply(m_newton, Hv);
   m_gHp = m_y.dot(Hv);
   m_pHp = m_newton.dot(Hv);
-  m_newton_norm = metric ? metric->norm(m_newton) : m_newton.norm();
+  m_newton_norm = m_metric ? m_metric->norm(m_newton) : m_newton.norm();
+}
+
+namespace {
+// |‖p‖ − Δ| ≤ 0.1Δ is Moré-Sorensen's usual tolerance: the step is then within 10% of the exact one's length,
+// and a tighter λ costs factorizations that the next accepted point discards.
+constexpr double kSphereTol = 0.1;
+}  // namespace
+
+void Dogleg::radius_shift(double delta) {
+  constexpr double tol = kSphereTol;
+  constexpr int max_factorizations = 6;
+  const auto close = [&](double norm) { return std::abs(norm - delta) <= tol * delta; };
+  if (close(m_newton_norm)) return;
+  // Best so far: the Newton point the solver now describes, if its ‖p‖ ≤ (1 + tol)Δ.
+  double best_shift = m_newton_norm <= (1.0 + tol) * delta ? m_shift : -1.0;
+  double best_norm = best_shift >= 0.0 ? m_newton_norm : -1.0;
+  VecX best_newton;
+  if (best_shift >= 0.0) best_newton = m_newton;
+  VecX w, Mp;
+  for (int k = 0; k < max_factorizations; ++k) {
+    // The bracket from every shift tried at this point: ‖p(λ)‖ falls with λ above −λ_min(H), and a shift that
+    // did not factorize lies below −λ_min.
+    double lo = 0.0, hi = kInf;
+    for (const auto& [l, n] : m_tried) {
+      if (n > delta && l > lo) lo = l;
+      if (n < delta && l < hi) hi = l;
+    }
+    if (!(hi > lo)) break;
+    // Newton on 1/‖p(λ)‖ = 1/Δ from the current point (Nocedal-Wright eq. 4.44): d‖p‖²/dλ = −2 pᵀM(H + λI)⁻¹p.
+    double next = -1.0;
+    if (m_factor_holds && m_newton_norm > 0.0) {
+      if (m_metric) m_metric->multiply(m_newton, Mp);
+      m_cholmod.solve(m_metric ? Mp : m_newton, w);
+      const double c = m_newton.dot(w);
+      if (c > 0.0 && std::isfinite(c))
+        next = m_shift + (m_newton_norm - delta) / delta * (m_newton_norm * m_newton_norm / c);
+    }
+    // Safeguard: outside the bracket, bisect it geometrically (λ spans decades), or step a decade out of it.
+    if (!(next > lo && next < hi)) next = hi == kInf ? 10.0 * std::max(lo, 1e-300) : lo > 0.0 ? std::sqrt(lo * hi) : 0.1 * hi;
+    ++m_factorizations;
+    // An overflowing solve counts as a failure: λ is then next to −λ_min, where ‖p‖ is unbounded.
+    m_factor_holds = m_cholmod.factorize(*m_H, next) && newton_point(next, false);
+    if (!m_factor_holds) {
+      m_tried.emplace_back(next, kInf);
+      continue;
+    }
+    m_tried.emplace_back(next, m_newton_norm);
+    if (m_newton_norm <= (1.0 + tol) * delta && m_newton_norm > best_norm) {
+      best_shift = next;
+      best_norm = m_newton_norm;
+      best_newton = m_newton;
+    }
+    if (close(m_newton_norm)) return;
+  }
+  // Out of factorizations: keep the longest Newton point within reach of the ball, else the last one found.
+  if (best_shift >= 0.0 && best_shift != m_shift) {
+    m_factor_holds = false;  // the solver holds the factor of another λ
+    set_newton(std::move(best_newton), best_shift);
+  }
 }
 
 double Dogleg::decrease(double a, double b) const {
@@ -341,19 +423,29 @@ double Dogleg::decrease(double a, double b) const {
   return -(gs + 0.5 * sHs);
 }
 
-QpResult Dogleg::step(double delta) const {
+QpResult Dogleg::step(double delta) {
   if (!m_prepared) throw_error("Dogleg::step called before prepare");
   QpResult out;
   if (m_g_norm == 0.0) {
     out.s = VecX::Zero(m_y.size());
     return out;
   }
+  m_shift_on_sphere = false;
+  if (m_radius_shift && !m_tried.empty()) {
+    radius_shift(delta);
+    m_shift_on_sphere = m_shift > 0.0 && std::abs(m_newton_norm - delta) <= kSphereTol * delta;
+  }
   // Steps are s = a·y + b·p_B; the model of such a step, and its M-norm geometry, need only the scalars of
   // prepare(), in which the formulas of ℓ2 hold unchanged (‖y‖² → gᵀy, yᵀp_B → gᵀp_B, ‖p_B‖ → ‖p_B‖_M).
   double a = 0.0, b = 0.0;
   if (m_newton_norm > 0.0 && m_newton_norm <= delta) {
     b = 1.0;
-    out.reason = QpStop::Converged;
+    out.reason = m_shift_on_sphere ? QpStop::Boundary : QpStop::Converged;
+  } else if (m_shift_on_sphere) {
+    // p(λ) is the exact step of the ball of radius ‖p‖, within 10% of Δ; scaled onto Δ it stays close to the exact
+    // step, where the segment from the Cauchy point towards it can lose most of the decrease along negative curvature.
+    b = delta / m_newton_norm;
+    out.reason = QpStop::Boundary;
   } else if (m_newton_norm > 0.0 && !(m_gHg > 0.0)) {
     // No Cauchy minimizer along −y (the segment 0 → p_U is unbounded): the Newton point of H + λI, cut at Δ.
     b = delta / m_newton_norm;

@@ -4,6 +4,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace mgcloth::linalg {
 
@@ -95,8 +97,9 @@ QpResult patch_step(const BlockMatrix3& H, const VecX& g, double delta, int swee
 
 /// What a shifted Cholesky factorization needed.
 struct ShiftedFactorization {
-  double shift = 0.0;  ///< λ of the factorization that succeeded (0: H itself is positive definite)
-  int attempts = 0;    ///< numeric factorizations tried
+  double shift = 0.0;   ///< λ of the factorization that succeeded (0: H itself is positive definite)
+  int attempts = 0;     ///< numeric factorizations tried
+  double failed = -1.0; ///< the largest λ tried that did not factorize (0: only H itself; −1: none failed)
 };
 
 /// Factorizes H, or H + λI when CHOLMOD reports H not positive definite, with λ from max(1e-8·max|diag H|,
@@ -117,31 +120,51 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
 /// along −M⁻¹g, and the path meets ‖·‖_M = Δ where the M-inner products of prepare() say. The metric is used again
 /// by step() (to measure the step), so it must outlive the prepare()d state, i.e. every step() until the next
 /// prepare().
+/// With set_radius_shift(true) an indefinite H gets the λ of the exact trust-region step instead (beyond the
+/// paper): step(Δ) solves ‖(H + λI)⁻¹g‖ = Δ for λ, a few factorizations per radius, so that Δ, not the smallest
+/// shift that factorizes, decides how far the step goes along the soft and negative-curvature directions.
 class Dogleg {
  public:
   void prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric = nullptr);
-  QpResult step(double delta) const;
+  /// The dogleg point for radius Δ. With set_radius_shift(true) and an H that was not positive definite, it first
+  /// moves λ so that the Newton point of H + λI lies on the boundary (radius_shift), which refactorizes; H and g of
+  /// prepare() must then still be alive and unchanged.
+  QpResult step(double delta);
   /// Geometric bisections of the shift of an indefinite H (factorize_shifted); 0: the first decade that works.
   void set_shift_bisections(int n) { m_bisections = n; }
+  /// Where H is indefinite, choose λ by the radius (the secular equation ‖(H + λI)⁻¹g‖ = Δ) instead of by the
+  /// factorization alone.
+  void set_radius_shift(bool on) { m_radius_shift = on; }
 
-  /// Numeric factorizations done by every prepare() so far (step() does none).
+  /// Numeric factorizations done by every prepare() and step() so far.
   int factorizations() const { return m_factorizations; }
   /// prepare() calls whose H was not positive definite and needed a shift.
   int fallbacks() const { return m_fallbacks; }
-  /// λ of the last prepare() (0 when H was positive definite).
+  /// λ of the current Newton point (0 when H was positive definite).
   double shift() const { return m_shift; }
   /// Symbolic analyses of the CHOLMOD solver (one per Hessian pattern).
   int analyses() const { return m_cholmod.analyses(); }
-  /// ‖p_B‖ (‖p_B‖_M with a metric) of the last prepare(): the radius beyond which step() returns the Newton point.
+  /// ‖p_B‖ (‖p_B‖_M with a metric) of the current Newton point: the radius beyond which step() returns it.
   double newton_norm() const { return m_newton_norm; }
 
  private:
   /// Model decrease −(gᵀs + ½ sᵀHs) of s = a·y + b·p_B, from the scalar products computed in prepare().
   double decrease(double a, double b) const;
+  /// p_B = −(H + λI)⁻¹g from the factor the solver holds, and the scalars of p_B. Where the solve overflows:
+  /// false, and p_B = 0 with keep_overflow, else the Newton point unchanged.
+  bool newton_point(double shift, bool keep_overflow);
+  void set_newton(VecX p, double shift);
+  /// Safeguarded Newton on the secular equation 1/‖p(λ)‖ = 1/Δ (Moré-Sorensen 1983; Nocedal-Wright Alg. 4.3),
+  /// λ bracketed by shifts that failed to factorize or gave ‖p‖ > Δ below and ‖p‖ < Δ above. Leaves the Newton
+  /// point at the λ whose ‖p(λ)‖ ≤ 1.1Δ came closest to Δ.
+  void radius_shift(double delta);
   int m_bisections = 0;
+  bool m_radius_shift = false;
 
   CholmodSolver m_cholmod;
   const NormMetric* m_metric = nullptr;
+  const BlockMatrix3* m_H = nullptr;
+  VecX m_g;
   /// y = M⁻¹g (g itself in ℓ2), so that −y is the steepest descent of the norm, and the Newton point
   /// p_B = −(H + λI)⁻¹g. The scalars are in terms of y: m_gg = gᵀy = ‖y‖²_M, m_gHg = yᵀHy, m_gp = gᵀp_B
   /// = yᵀMp_B, m_gHp = yᵀHp_B, m_pHp = p_BᵀHp_B, m_g_norm = ‖y‖_M, m_newton_norm = ‖p_B‖_M.
@@ -149,6 +172,11 @@ class Dogleg {
   double m_gg = 0.0, m_gHg = 0.0, m_gp = 0.0, m_gHp = 0.0, m_pHp = 0.0;
   double m_g_norm = 0.0, m_newton_norm = 0.0;
   double m_shift = 0.0;
+  /// Shifts tried since prepare(), as (λ, ‖p(λ)‖), ‖p‖ = ∞ where H + λI did not factorize: the bracket of every
+  /// later radius.
+  std::vector<std::pair<double, double>> m_tried;
+  bool m_shift_on_sphere = false;  ///< step(): the radius shift put ‖p_B‖ within 10% of Δ
+  bool m_factor_holds = false;  ///< the solver holds the factor of H + m_shift·I
   int m_factorizations = 0;
   int m_fallbacks = 0;
   bool m_prepared = false;

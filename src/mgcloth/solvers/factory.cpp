@@ -135,6 +135,7 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.psd_hessian = r.choice("hessian", p.psd_hessian ? "projected" : "exact", {"exact", "projected"}) == "projected";
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
+  p.radius_shift = r.choice("shift", p.radius_shift ? "radius" : "factorize", {"factorize", "radius"}) == "radius";
   return p;
 }
 Json write_trust_region(const TrustRegionParams& p) {
@@ -149,7 +150,8 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"roundoff_tol", p.roundoff_tol},
             {"hessian", p.psd_hessian ? "projected" : "exact"},
             {"shrink_from_step", p.shrink_from_step},
-            {"shift_bisections", p.shift_bisections}};
+            {"shift_bisections", p.shift_bisections},
+            {"shift", p.radius_shift ? "radius" : "factorize"}};
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;
@@ -192,6 +194,7 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   p.nested_rel_grad = r.number("nested_rel_grad", p.nested_rel_grad, 0.0, 1.0);
   if (!(p.nested_rel_grad > 0.0 && p.nested_rel_grad < 1.0)) r.fail("nested_rel_grad", "must lie in (0, 1)");
   p.nested_max_cycles = r.integer("nested_max_cycles", p.nested_max_cycles, 1, 1'000'000);
+  p.nested_energy_tol = r.number("nested_energy_tol", p.nested_energy_tol, 0.0, 1.0);
   p.coarse_start = r.choice("coarse_start", p.coarse_start, {"projection", "best"});
   return p;
 }
@@ -216,6 +219,7 @@ Json write_rmtr(const RmtrParams& p) {
   j["initial"] = p.initial;
   j["nested_rel_grad"] = p.nested_rel_grad;
   j["nested_max_cycles"] = p.nested_max_cycles;
+  j["nested_energy_tol"] = p.nested_energy_tol;
   j["coarse_start"] = p.coarse_start;
   return j;
 }

@@ -45,10 +45,16 @@ struct RmtrParams {
   /// solution prolongated as a correction to the next level, whose problem is solved by RMTR V-cycles on the levels
   /// below it, and so on up to the finest). Large motions are then found where a step costs 4^-l of a fine one.
   std::string initial = "fine";
-  /// Nested iteration: each coarse level is solved to ‖∇f_l‖ ≤ nested_rel_grad · ‖∇f_l(start)‖ ...
+  /// Nested iteration: each coarse level above the coarsest is solved to ‖∇f_l‖ ≤ nested_rel_grad · ‖∇f_l(start)‖
+  /// (the coarsest to the finest level's target) ...
   double nested_rel_grad = 1e-3;
   /// ... or for at most this many V-cycles (Local_TR iterations on the coarsest level: 100 times as many).
   int nested_max_cycles = 200;
+  /// ... or once its last 10 V-cycles (1,000 Local_TR iterations on the coarsest level) lowered its energy by at
+  /// most nested_energy_tol times the decrease since its start (beyond the paper; 0: off). The stiff boundary
+  /// penalty of a deep hierarchy keeps ‖∇f_l‖ large long after the energy has settled, and a nested solution is
+  /// only a start.
+  double nested_energy_tol = 0.0;
   /// The coarse start x^{l-1}_0 (beyond the paper): "projection" (P x, eq. 4.6) or "best" (P x or the level's own
   /// iterate where its last visit ended, whichever has the lower coarse energy). In large motion P x of a
   /// wrinkled fine state can have a coarse energy of 1e20 J and more (the woven material's exponential stiffening
@@ -71,6 +77,7 @@ struct RmtrLevelCounters {
   int radius_exhausted = 0;        ///< visits that ended because the fine radius was used up (Alg. 4.3)
   int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
   int cholmod_fallbacks = 0;       ///< dogleg steps whose Hessian needed a shift H + λI (it was indefinite)
+  int factorizations = 0;          ///< numeric CHOLMOD factorizations of the dogleg, shifted retries included
 };
 
 /// One coarse correction's test (eq. 4.11), for tests and diagnostics.

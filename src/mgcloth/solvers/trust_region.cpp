@@ -47,7 +47,10 @@ void LevelModel::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_ps
 }
 
 double radius_update(const TrustRegionParams& p, double rho, double radius, double step_norm) {
-  if (rho < p.eta1) return p.gamma1 * (p.shrink_from_step ? std::min(radius, step_norm) : radius);
+  // With the radius shift an interior step of an indefinite H is the exact step of the ball of its own norm, so a
+  // rejection shrinks from that norm: from γ1·Δ alone a radius of 1e20 would return the same step tens of times.
+  const bool from_step = p.shrink_from_step || p.radius_shift;
+  if (rho < p.eta1) return p.gamma1 * (from_step ? std::min(radius, step_norm) : radius);
   if (rho > p.eta2) return std::min(p.gamma2 * radius, p.delta_max);
   return radius;
 }
@@ -66,7 +69,12 @@ void LocalTrustRegion::reset() {
 
 linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric) {
   ++m_counters.qp_calls;
-  if (m_params.qp == TrQp::Dogleg) return m_dogleg.step(radius);
+  if (m_params.qp == TrQp::Dogleg) {
+    const int before = m_dogleg.factorizations();  // the radius shift refactorizes
+    auto r = m_dogleg.step(radius);
+    m_counters.factorizations += m_dogleg.factorizations() - before;
+    return r;
+  }
   if (m_params.qp == TrQp::Exact) return m_exact.step(radius);
   if (m_params.qp == TrQp::GaussSeidel) return linalg::gauss_seidel_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_gs, metric);
   if (m_params.qp == TrQp::Schwarz) return linalg::patch_step(m_hessian, m_g, radius, m_params.gs_sweeps, *m_patches, metric);
@@ -124,6 +132,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
         try {
           m_dogleg.set_shift_bisections(p.shift_bisections);
+          m_dogleg.set_radius_shift(p.radius_shift);
           m_dogleg.prepare(m_hessian, m_g, control.metric);
         } catch (const SolveError& e) {
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));

@@ -46,6 +46,10 @@ struct TrustRegionParams {
   bool psd_hessian = false;
   /// Dogleg: geometric bisections of the shift λ where H is indefinite (0: the first decade that factorizes).
   int shift_bisections = 0;
+  /// Dogleg ("shift": "radius"): where H is indefinite, λ solves ‖(H + λI)⁻¹g‖ = Δ (to 10%, at most 6 more
+  /// factorizations per radius), the shift of the exact trust-region step, so that the radius sets the step's
+  /// length. false ("factorize"): the smallest shift found that factorizes, whatever Δ. Implies shrink_from_step.
+  bool radius_shift = false;
   /// A rejected step shrinks the radius to γ1·min(Δ, ‖s‖) instead of γ1·Δ (beyond the paper's Alg. 4.3, line 2; the
   /// usual practice): after an interior (Newton) step far inside a radius that has grown to 1e15, halving Δ alone
   /// would need tens of rejected iterations before the radius constrains anything again.
