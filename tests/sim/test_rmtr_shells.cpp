@@ -246,6 +246,34 @@ TEST(Rmtr, RadiusShiftReachesTheHangingState) {
   EXPECT_NEAR(ml.report.energy, -0.524, 2e-3);
 }
 
+// correction_backtracking: a coarse correction that (4.11) rejects is retried at α = ½, ¼, ⅛ with Armijo decrease.
+// On the Drooping's large motion some corrections are then taken in part, the finest energy still never increases,
+// and the V-cycles reach the same hanging state.
+TEST(Rmtr, BacktrackedCoarseCorrectionsKeepTheEnergyDecreasingAndReachTheHangingState) {
+  const sim::Scene scene = shell_scene("drooping", 2);
+  sim::Scene s = scene;
+  s.solver.name = "rmtr";
+  s.solver.params = Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"},
+                         {"correction_backtracking", 3}};
+  s.solver.stop.max_iters = 150;
+  sim::Simulator sim(s);
+  VecX x;
+  solvers::Problem problem = sim.prepare_shell_problem(0, x);
+  auto& rmtr = dynamic_cast<solvers::Rmtr&>(sim.shell_solver(0));
+  const auto rep = rmtr.minimize(problem, x, s.solver.stop, nullptr);
+  ASSERT_TRUE(rep.converged) << rep.status << " after " << rep.iterations << " cycles, |g| = " << rep.grad_norm;
+  EXPECT_NEAR(rep.energy, -0.524, 2e-3);
+  int partial = 0;
+  for (const auto& c : rmtr.corrections())
+    if (c.accepted && c.fraction < 1.0) {
+      ++partial;
+      EXPECT_GT(c.fraction, 0.1);
+    }
+  EXPECT_GE(partial, 1) << "no correction was backtracked";
+  const auto& e = rmtr.finest_energies();
+  for (size_t i = 1; i < e.size(); ++i) EXPECT_LE(e[i], e[i - 1] + 1e-12 * std::abs(e[i - 1])) << "at " << i;
+}
+
 TEST(Rmtr, BadParametersNameTheField) {
   const auto expect_error = [](const Json& params, const std::string& field) {
     solvers::SolverConfig c;
@@ -272,5 +300,6 @@ TEST(Rmtr, BadParametersNameTheField) {
   expect_error({{"shift_bisections", -1}}, "shift_bisections");
   expect_error({{"shift", "exact"}}, "shift");
   expect_error({{"nested_energy_tol", -0.1}}, "nested_energy_tol");
+  expect_error({{"correction_backtracking", -1}}, "correction_backtracking");
   expect_error({{"mu1", 2}}, "mu1");  // unknown key
 }

@@ -195,6 +195,7 @@ RmtrParams read_rmtr(JsonReader& r, RmtrParams p) {
   if (!(p.nested_rel_grad > 0.0 && p.nested_rel_grad < 1.0)) r.fail("nested_rel_grad", "must lie in (0, 1)");
   p.nested_max_cycles = r.integer("nested_max_cycles", p.nested_max_cycles, 1, 1'000'000);
   p.nested_energy_tol = r.number("nested_energy_tol", p.nested_energy_tol, 0.0, 1.0);
+  p.correction_backtracking = r.integer("correction_backtracking", p.correction_backtracking, 0, 60);
   p.coarse_start = r.choice("coarse_start", p.coarse_start, {"projection", "best"});
   return p;
 }
@@ -220,6 +221,7 @@ Json write_rmtr(const RmtrParams& p) {
   j["nested_rel_grad"] = p.nested_rel_grad;
   j["nested_max_cycles"] = p.nested_max_cycles;
   j["nested_energy_tol"] = p.nested_energy_tol;
+  j["correction_backtracking"] = p.correction_backtracking;
   j["coarse_start"] = p.coarse_start;
   return j;
 }

@@ -309,11 +309,27 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
       L.S->apply(VecX(xc - xc0), s);
       corr.step_norm = L.norm(s);
       VecX trial = x + s;
-      const double ft = h->value(trial);
+      double ft = h->value(trial);
       ++C.energy_evaluations;
       corr.fine_reduction = fx - ft;
       corr.rho = std::isfinite(ft) ? corr.fine_reduction / corr.coarse_reduction : -kInf;
       corr.accepted = corr.rho > p.eta1;
+      if (!corr.accepted && m_params.correction_backtracking > 0) {
+        const double slope = L.tr->gradient().dot(s);  // ∇hᵀs at x, where pre-smoothing left the gradient
+        for (int k = 0; k < m_params.correction_backtracking && slope < 0.0; ++k) {
+          const double alpha = std::ldexp(1.0, -(k + 1));
+          trial = x + alpha * s;
+          const double fa = h->value(trial);
+          ++C.energy_evaluations;
+          if (std::isfinite(fa) && fx - fa >= -p.eta1 * alpha * slope) {
+            corr.accepted = true;
+            corr.fraction = alpha;
+            ft = fa;
+            ++C.corrections_backtracked;
+            break;
+          }
+        }
+      }
       if (corr.accepted) {
         x.swap(trial);
         fx = ft;
@@ -329,7 +345,8 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     }
     logger().debug("rmtr level {}: coarse reduction {:.3e}, fine {:.3e}, rho {:+.3e}, |s| {:.3e} of {:.3e}, {}", l,
                    corr.coarse_reduction, corr.fine_reduction, corr.rho, corr.step_norm, corr.radius,
-                   corr.accepted ? "accepted" : "rejected");
+                   !corr.accepted ? "rejected" : corr.fraction < 1.0 ? fmt::format("accepted at α = {}", corr.fraction)
+                                                                      : std::string("accepted"));
     m_corrections.push_back(corr);
     if (!(radius > 0.0)) {
       ++C.radius_exhausted;
@@ -579,12 +596,14 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   }
   accumulate();
   finish_report(rep, cycle, m_finest_energy, gnorm, target, timer.ms());
-  int corr_acc = 0, corr_rej = 0;
+  int corr_acc = 0, corr_rej = 0, corr_back = 0;
   for (const auto& c : m_counters) {
     corr_acc += c.corrections_accepted;
     corr_rej += c.corrections_rejected;
+    corr_back += c.corrections_backtracked;
   }
   rep.counters = {{"corrections_accepted", corr_acc}, {"corrections_rejected", corr_rej},
+                  {"corrections_backtracked", corr_back},
                   {"work_assembly", work_units_assembly()}, {"work_qp", work_units_qp()},
                   {"final_radius", m_radius}, {"levels", static_cast<double>(m_levels.size())}};
   for (size_t i = 0; i < m_nested_cycles.size(); ++i)

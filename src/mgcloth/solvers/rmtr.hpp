@@ -60,6 +60,12 @@ struct RmtrParams {
   /// wrinkled fine state can have a coarse energy of 1e20 J and more (the woven material's exponential stiffening
   /// of the strains the projection introduces), where round-off leaves the coarse model nothing to resolve.
   std::string coarse_start = "projection";
+  /// A coarse correction s that (4.11) rejects is retried as x + αs, α = ½, ¼, … at most this many times, and
+  /// accepted at the first α with Armijo decrease f(x) − f(x + αs) ≥ η1·α·(−∇fᵀs) (beyond the paper; 0: off, as
+  /// in Alg. 4.2). First-order consistency makes s a descent direction of the fine level wherever the coarse model
+  /// decreased from its start along it; the coarse model's curvature, not its slope, is what a rediscretized
+  /// exponential material gets wrong. The radius still shrinks by the whole step's ρ.
+  int correction_backtracking = 0;
 };
 
 /// Work on one level, accumulated over a solve.
@@ -77,6 +83,7 @@ struct RmtrLevelCounters {
   int radius_exhausted = 0;        ///< visits that ended because the fine radius was used up (Alg. 4.3)
   int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
   int cholmod_fallbacks = 0;       ///< dogleg steps whose Hessian needed a shift H + λI (it was indefinite)
+  int corrections_backtracked = 0; ///< corrections_accepted that were rejected whole and accepted as x + αs, α < 1
   int factorizations = 0;          ///< numeric CHOLMOD factorizations of the dogleg, shifted retries included
 };
 
@@ -89,6 +96,7 @@ struct RmtrCorrection {
   double step_norm = 0.0;        ///< ‖s‖ in level l's norm (eq. 4.9)
   double radius = 0.0;           ///< Δ^l the correction had to respect (eq. 4.7)
   bool accepted = false;
+  double fraction = 1.0;         ///< α of the accepted x + αs (< 1 after correction_backtracking)
 };
 
 /// The recursive multilevel trust-region method (Kopaničáková 2019, Alg. 4.2; Gross-Krause 2009) as V-cycles on a
