@@ -60,7 +60,7 @@ struct ShellArgs {
   std::string levels = "1,2,3,4", solvers = "tr-dogleg,tr-stcg", out;
   double time_step = 0.0, max_seconds = 0.0;
   int max_iters = 0, threads = 0;
-  bool quiet = false, verbose = false;
+  bool quiet = false, verbose = false, resume = false;
 } g_shell;
 
 struct TimestepArgs {
@@ -342,6 +342,8 @@ int run_shells_command() {
   }
   const fs::path out = g_shell.out;
   prepare_out_dir(out);
+  opt.states_dir = (out / "states").string();
+  opt.resume = g_shell.resume;
   set_log_level(g_shell.quiet);
   if (g_shell.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
@@ -532,6 +534,9 @@ void add_bench_command(CLI::App& app) {
   sh->add_option("--threads,-j", g_shell.threads, "Worker threads (default: all cores)");
   sh->add_flag("--quiet,-q", g_shell.quiet, "No progress log");
   sh->add_flag("--verbose,-v", g_shell.verbose, "Log solver details (every V-cycle and coarse correction)");
+  sh->add_flag("--resume", g_shell.resume,
+               "Go on from the iterates an earlier run left in OUT/states (solves stopped by a cap continue, "
+               "converged ones are kept)");
 
   auto* ts = bench->add_subcommand(
       "timestep", "Largest time step at which each shell solver converges at every step (Kopanicakova 2019, Fig. 10)");

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <regex>
+
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -455,6 +457,49 @@ TEST_F(Cli, ShellSceneRunsWritesProbesAndResumes) {
   EXPECT_NE(r.out.find("--levels: 0 is out of range [1, 9]"), std::string::npos) << r.out;
   r = run(fmt::format("run {} --level 12", scene));
   EXPECT_NE(r.code, 0);
+}
+
+// A shell study stopped by its iteration cap goes on with --resume from the iterate it left in OUT/states: the
+// single-level TR's iterations add up to those of the uninterrupted solve (its state is the iterate alone, apart
+// from the radius), a converged solve is not run again, and a state of another solve is refused by name.
+TEST_F(Cli, ShellBenchResumesASolveStoppedByItsCap) {
+  const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_trampoline.json";
+  const fs::path whole = dir / "whole", parts = dir / "parts";
+  const auto iterations = [](const fs::path& out) {
+    const mgcloth::Json j = mgcloth::load_json((out / "shells.json").string());
+    return std::make_pair(j["results"][0]["iterations"].get<int>(), j["results"][0]["status"].get<std::string>());
+  };
+  Result r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg -q -o {}", scene, whole.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto [total, status] = iterations(whole);
+  ASSERT_EQ(status, "converged");
+  ASSERT_GT(total, 4);
+  r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg --max-iters 3 -q -o {}", scene, parts.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(iterations(parts), std::make_pair(3, std::string("max_iters")));
+  const fs::path state = parts / "states" / "trampoline-L2-tr-dogleg.state.json";
+  ASSERT_TRUE(fs::exists(state));
+  r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg --resume -q -o {}", scene, parts.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto [resumed, resumed_status] = iterations(parts);
+  EXPECT_EQ(resumed_status, "converged");
+  EXPECT_GE(resumed, total);  // the radius restarts at delta0, so the second part can take a few more
+  EXPECT_LE(resumed, total + 5);
+  r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg --resume -q -o {}", scene, parts.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(iterations(parts).first, resumed);  // converged before: kept, not solved again
+
+  // Another level's state under this name, and a truncated file: refused, naming the file.
+  const std::string text = mgcloth::read_file(state);
+  mgcloth::write_file_atomic(state, std::regex_replace(text, std::regex("\"level\":2"), "\"level\":3"));
+  r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg --resume -q -o {}", scene, parts.string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find(state.string()), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not of this solve"), std::string::npos) << r.out;
+  mgcloth::write_file_atomic(state, text.substr(0, text.size() / 2));
+  r = run(fmt::format("bench shells {} --levels 2 --solvers tr-dogleg --resume -q -o {}", scene, parts.string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find(state.string()), std::string::npos) << r.out;
 }
 
 // The time-step study from the command line: a row per tried dt in the CSV, the largest passing dt in the table,

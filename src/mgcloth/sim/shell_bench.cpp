@@ -1,9 +1,14 @@
+#include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/json.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <cctype>
+#include <filesystem>
+#include <optional>
 #include <random>
 
 namespace mgcloth::sim {
@@ -18,6 +23,70 @@ bool has_counter(const ShellBenchRow& r, const std::string& name) {
   for (const auto& [k, v] : r.counters)
     if (k == name) return true;
   return false;
+}
+
+namespace fs = std::filesystem;
+
+fs::path state_path(const ShellBenchOptions& opt, const std::string& shell, int level, const std::string& solver) {
+  std::string name = fmt::format("{}-L{}-{}", shell, level, solver);
+  for (char& c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.')) c = '_';
+  return fs::path(opt.states_dir) / (name + ".state.json");
+}
+
+void write_state(const fs::path& path, const ShellBenchRow& r, const VecX& x) {
+  Json c = Json::object();
+  for (const auto& [k, v] : r.counters) c[k] = v;
+  Json j = {{"format", "mgcloth shell bench state 1"}, {"scene", r.scene}, {"shell", r.shell}, {"level", r.level},
+            {"solver", r.solver}, {"dofs", r.dofs}, {"iterations", r.iterations}, {"converged", r.converged},
+            {"status", r.status}, {"energy", r.energy}, {"grad_norm", r.grad_norm},
+            {"initial_grad_norm", r.initial_grad_norm}, {"wall_s", r.wall_s}, {"counters", c}};
+  j["x"] = std::vector<double>(x.data(), x.data() + x.size());
+  std::error_code ec;
+  fs::create_directories(path.parent_path(), ec);
+  write_file_atomic(path, j.dump() + "\n");
+}
+
+/// The row and iterate of an earlier part of this solve; throws InputError naming the file where it is not one.
+ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX& x) {
+  const std::string file = path.string();
+  const Json j = load_json(file);
+  const auto field = [&](const char* key) -> const Json& {
+    if (!j.is_object() || !j.contains(key)) throw_input_error("{}: not a shell bench state (no \"{}\")", file, key);
+    return j.at(key);
+  };
+  try {
+    if (field("format").get<std::string>() != "mgcloth shell bench state 1")
+      throw_input_error("{}: format \"{}\" is not \"mgcloth shell bench state 1\"", file, field("format").get<std::string>());
+    ShellBenchRow r;
+    r.scene = field("scene").get<std::string>();
+    r.shell = field("shell").get<std::string>();
+    r.level = field("level").get<int>();
+    r.solver = field("solver").get<std::string>();
+    r.dofs = field("dofs").get<Index>();
+    if (r.shell != expect.shell || r.level != expect.level || r.solver != expect.solver || r.dofs != expect.dofs)
+      throw_input_error("{}: the state of shell \"{}\" at level {} ({} dofs) by {}, not of this solve (\"{}\", level {}, "
+                        "{} dofs, {})", file, r.shell, r.level, r.dofs, r.solver, expect.shell, expect.level,
+                        expect.dofs, expect.solver);
+    r.time_step = expect.time_step;
+    r.iterations = field("iterations").get<int>();
+    r.converged = field("converged").get<bool>();
+    r.status = field("status").get<std::string>();
+    r.energy = field("energy").get<double>();
+    r.grad_norm = field("grad_norm").get<double>();
+    r.initial_grad_norm = field("initial_grad_norm").get<double>();
+    r.wall_s = field("wall_s").get<double>();
+    for (const auto& [k, v] : field("counters").items()) r.counters.emplace_back(k, v.get<double>());
+    const auto values = field("x").get<std::vector<double>>();
+    if (static_cast<Index>(values.size()) != r.dofs)
+      throw_input_error("{}: \"x\" has {} entries, the shell {} dofs", file, values.size(), r.dofs);
+    x = Eigen::Map<const VecX>(values.data(), static_cast<Index>(values.size()));
+    if (!x.allFinite()) throw_input_error("{}: \"x\" has a non-finite entry", file);
+    if (r.iterations < 0 || !(r.wall_s >= 0.0)) throw_input_error("{}: negative iterations or wall_s", file);
+    return r;
+  } catch (const Json::exception& e) {
+    throw_input_error("{}: {}", file, e.what());
+  }
 }
 }  // namespace
 
@@ -48,7 +117,14 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
     if (base.shells.empty()) throw_input_error("{}: the scene has no shells", base.file);
     for (int level : opt.levels)
       for (const SolverSpec& spec : opt.solvers) {
-        const Scene scene = shell_bench_scene(base, level, spec, opt);
+        Scene scene = shell_bench_scene(base, level, spec, opt);
+        // A resumed solve goes on from its iterate: nested iteration would restart from the coarse problems.
+        if (opt.resume && !opt.states_dir.empty()) {
+          bool any = false;
+          for (size_t s = 0; s < scene.shells.size(); ++s)
+            if (fs::exists(state_path(opt, scene.shells[s].name, level, spec.label))) any = true;
+          if (any && scene.solver.name == "rmtr") scene.solver.params["initial"] = "fine";
+        }
         Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
           ShellBenchRow row;
@@ -58,8 +134,23 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           row.level = level;
           row.dofs = static_cast<Index>(sim.shells()[s]->x().size());
           row.time_step = scene.step_size();
+          const fs::path state = opt.states_dir.empty() ? fs::path() : state_path(opt, row.shell, level, spec.label);
+          std::optional<ShellBenchRow> before;
+          VecX resumed;
+          if (opt.resume && !state.empty() && fs::exists(state)) before = read_state(state, row, resumed);
+          if (before && before->converged) {
+            logger().info("{} level {} {}: converged in an earlier run ({})", row.shell, level, spec.label, state.string());
+            rows.push_back(*before);
+            if (on_row) on_row(rows);
+            continue;
+          }
           VecX x;
           solvers::Problem problem = sim.prepare_shell_problem(s, x);
+          if (before) {
+            x = resumed;
+            logger().info("{} level {} {}: resumed after {} iterations ({})", row.shell, level, spec.label,
+                          before->iterations, state.string());
+          }
           Timer timer;
           try {
             const auto rep = sim.shell_solver(s).minimize(problem, x, scene.solver.stop, nullptr);
@@ -75,6 +166,16 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             logger().info("{} level {} {}: {}", row.shell, level, spec.label, e.what());
           }
           row.wall_s = timer.seconds();
+          if (before) {
+            row.iterations += before->iterations;
+            row.wall_s += before->wall_s;
+            row.initial_grad_norm = before->initial_grad_norm;  // ‖g₀‖ of the step's start, for rel_grad
+            // The nested cycles were spent by the first part only; its iterations include every part before.
+            for (const auto& [k, v] : before->counters)
+              if (k.find("_nested_cycles") != std::string::npos) row.counters.emplace_back(k, v);
+            row.counters.emplace_back("resumed_iterations", before->iterations);
+          }
+          if (!state.empty() && row.status != "diverged") write_state(state, row, x);
           logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
                         spec.label, row.iterations, row.status, row.wall_s);
           rows.push_back(std::move(row));

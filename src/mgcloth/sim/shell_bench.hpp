@@ -15,6 +15,13 @@ struct ShellBenchOptions {
   int max_iters = 0;        ///< > 0: overrides the scenes' solver.max_iters
   double max_seconds = 0.0; ///< > 0: wall-time cap per solve
   int threads = 0;
+  /// Non-empty: each solve's final iterate and row are written there (`<shell>-L<level>-<solver>.state.json`,
+  /// atomically), so that a solve stopped by its cap can go on in a later run.
+  std::string states_dir;
+  /// With states_dir: a solve whose state exists starts from it instead of the step's start (a converged one is not
+  /// solved again). RMTR then skips nested iteration (initial: fine). Iterations and wall time add up; the counters
+  /// are those of the last part, plus `resumed_iterations` (the parts before) and the nested cycles of the first.
+  bool resume = false;
 };
 
 struct ShellBenchRow {
@@ -39,6 +46,8 @@ Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, co
 using ShellBenchProgress = std::function<void(const std::vector<ShellBenchRow>&)>;
 
 /// Runs every (scene, level, solver); a solve that diverges (SolveError) is recorded with status "diverged".
+/// A state file that does not belong to its (scene, shell, level, solver, dofs) or is malformed is an InputError
+/// naming the file.
 std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& options,
                                            const ShellBenchProgress& on_row = {});
 /// scene,shell,level,dofs,time_step,solver,iterations,converged,status,energy,grad_norm,rel_grad,wall_s,
