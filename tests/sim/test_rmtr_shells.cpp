@@ -181,6 +181,24 @@ TEST(Rmtr, NestedIterationWithNewtonSmoothingSolvesLargeMotionInFewCycles) {
   EXPECT_NEAR(ml.report.energy, -0.524, 2e-3);
 }
 
+// Criterion (7.1)'s second clause at the limiting accuracy: with a gradient target of 0, which floating point
+// cannot meet, the V-cycles end with Newton steps of the fine level (positive definite H, interior step) whose
+// changes fall below 1e-12. The trust region is then Newton's method, as Δ > 1e15 stands for in (7.1), although the
+// round-off rule keeps Δ small: the solve stops "stagnated" (converged by (7.1)) at the dogleg TR's minimizer.
+TEST(Rmtr, NewtonStepsAtTheLimitingAccuracyStopTheVCyclesByTheSecondClause) {
+  sim::Scene scene = shell_scene("trampoline", 2);
+  const Solved tr = solve_first_step(scene, "tr-dogleg");
+  ASSERT_TRUE(tr.report.converged) << tr.report.status;
+  scene.solver.stop.abs_grad = 0.0;
+  scene.solver.stop.rel_grad = 0.0;
+  const Solved ml = solve_first_step(scene, "rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}}, 200);
+  EXPECT_EQ(ml.report.status, "stagnated") << "after " << ml.report.iterations << " cycles";
+  EXPECT_TRUE(ml.report.converged);
+  EXPECT_LT(ml.report.iterations, 50);
+  EXPECT_LT(ml.report.grad_norm, 1e-6);
+  EXPECT_LT((ml.x - tr.x).lpNorm<Eigen::Infinity>(), 1e-6);
+}
+
 // coarse_start "best" (beyond the paper): a coarse level may start from where its last visit ended instead of the
 // projected iterate, whichever has the lower coarse energy. The correction is still S(x − x₀), so the V-cycle keeps
 // first-order consistency and reaches the hanging state (this step has several stationary points of that energy, so

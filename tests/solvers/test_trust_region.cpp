@@ -329,26 +329,51 @@ TEST(TrustRegion, DerivativesAreAssembledOnlyAtAcceptedPoints) {
   }
 }
 
-TEST(TrustRegion, StagnationClauseStopsAsStalled) {
+TEST(TrustRegion, StagnationClauseStopsAsStagnatedOnceTheRadiusIsLarge) {
   // With Δ past stagnation_delta from the start and a huge tolerance, the first accepted step changes x by less
-  // than stagnation_tol: criterion (7.1)'s second part stops the solve, as "stalled" (not converged).
+  // than stagnation_tol: criterion (7.1)'s second part stops the solve, as "stagnated", which meets (7.1).
   auto t = convex_chain();
   solvers::TrustRegionParams params;
   params.delta0 = 1e16;
   params.stagnation_tol = 1e3;
+  params.qp = solvers::TrQp::SteihaugCg;  // not a Newton step: only Δ activates the clause
   solvers::TrustRegion tr(params);
   auto problem = t.problem();
   VecX x = t.x0;
   const auto rep = tr.minimize(problem, x, tight(), nullptr);
-  EXPECT_EQ(rep.status, "stalled");
-  EXPECT_FALSE(rep.converged);
+  EXPECT_EQ(rep.status, "stagnated");
+  EXPECT_TRUE(rep.converged);
   EXPECT_EQ(rep.iterations, 1);
-  // Below stagnation_delta the clause is off.
+  // Below stagnation_delta, and without Newton steps, the clause is off: the gradient test stops the solve.
   params.delta0 = 1.0;
   solvers::TrustRegion tr2(params);
   x = t.x0;
   const auto rep2 = tr2.minimize(problem, x, tight(), nullptr);
-  EXPECT_TRUE(rep2.converged) << rep2.status;
+  EXPECT_EQ(rep2.status, "converged");
+  EXPECT_GT(rep2.iterations, 1);
+}
+
+TEST(TrustRegion, NewtonStepsActivateTheStagnationClauseAtTheLimitingAccuracy) {
+  // A gradient target of 0 cannot be met in floating point. Near the minimizer the dogleg takes the full step of
+  // a positive definite H while Δ stays small (the round-off rule keeps it): the trust region is Newton's method,
+  // which is what (7.1)'s Δ > 1e15 stands for, so the clause stops the solve once the steps fall below 1e-12.
+  auto t = convex_chain();
+  solvers::TrustRegionParams params;
+  params.delta0 = 1.0;
+  params.delta_max = 10.0;  // far below stagnation_delta = 1e15
+  solvers::TrustRegion tr(params);
+  auto problem = t.problem();
+  VecX x = t.x0;
+  solvers::Stop stop;
+  stop.rel_grad = 0.0;
+  stop.abs_grad = 0.0;
+  stop.max_iters = 200;
+  const auto rep = tr.minimize(problem, x, stop, nullptr);
+  EXPECT_EQ(rep.status, "stagnated");
+  EXPECT_TRUE(rep.converged);
+  EXPECT_LT(rep.iterations, 60);
+  EXPECT_LE(counter(rep, "final_radius"), 10.0);
+  EXPECT_LT(rep.grad_norm, 1e-10 * rep.initial_grad_norm);
 }
 
 TEST(TrustRegion, LocalTrMinimizesTheLevelModelWithItsLinearTerm) {

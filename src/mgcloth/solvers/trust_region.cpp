@@ -111,15 +111,17 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
   res.grad_target = std::max(control.abs_grad, control.rel_grad * gnorm);
   if (control.trace) control.trace->push_back({0, f, gnorm, clock.ms(), 0.0});
   bool have_hessian = false;
-  // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1).
+  // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1), and whether it was a Newton step.
   double last_df = kInf, last_dx = kInf, last_radius = 0.0;
+  bool last_newton = false;
   res.status = "max_iters";
   int i = 0;
   for (; i < control.max_iters; ++i) {
     if (gnorm <= res.grad_target) res.status = "converged";
     else if (clock.seconds() > control.max_seconds) res.status = "time_limit";
-    else if (last_radius > p.stagnation_delta && (last_df < p.stagnation_tol || last_dx < p.stagnation_tol))
-      res.status = "stalled";
+    else if ((last_radius > p.stagnation_delta || last_newton) &&
+             (last_df < p.stagnation_tol || last_dx < p.stagnation_tol))
+      res.status = "stagnated";
     // A radius below the round-off of x cannot move it: no decrease is possible in floating point.
     else if (!(radius > 1e-15 * x.lpNorm<Eigen::Infinity>()) || radius < std::numeric_limits<double>::min())
       res.status = "stalled";
@@ -220,21 +222,26 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       step_taken = it.step_norm;
       last_df = std::abs(it.actual);
       last_dx = it.step_norm;
+      it.newton = qp.reason == linalg::QpStop::Converged &&
+                  ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
+      last_newton = it.newton;
     } else {
       // (7.1)'s second clause guards against meandering by tiny accepted steps; a rejected step leaves x as it was
       // but says nothing about convergence (far from a minimum it is a step into an infeasible or badly modelled
       // region), so it does not trigger the clause.
       ++m_counters.rejected;
       last_df = last_dx = kInf;
+      last_newton = false;
     }
     last_radius = radius;
     if (control.radius_cap) next = control.radius_cap(x, next);
     it.next_radius = next;
     m_history.push_back(it);
     if (control.trace) control.trace->push_back({i + 1, f, gnorm, clock.ms(), step_taken});
-    logger().debug("tr {:4d}: {} rho = {:+.3e}  E = {:.12e}  |g| = {:.3e}  radius {:.3e} -> {:.3e}  |s| = {:.3e} ({})",
+    logger().debug("tr {:4d}: {} rho = {:+.3e}  E = {:.12e}  |g| = {:.3e}  radius {:.3e} -> {:.3e}  |s| = {:.3e} ({}){}",
                    i + 1, it.accepted ? "accept" : "reject", it.rho, f, gnorm, radius, next, it.step_norm,
-                   linalg::to_string(qp.reason));
+                   linalg::to_string(qp.reason),
+                   p.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift()) : "");
     radius = next;
     if (!(radius > 0.0)) {
       ++i;

@@ -110,6 +110,9 @@ struct TrIteration {
   double step_norm = 0.0;    ///< ‖s‖
   linalg::QpStop qp = linalg::QpStop::Converged;
   int cg_iterations = 0;
+  /// Accepted, and the full step of the unshifted exact model (dogleg or exact subproblem, interior, H itself
+  /// positive definite): the trust region acted as Newton's method, as (7.1)'s Δ > 1e15 stands for.
+  bool newton = false;
 };
 
 /// How long Local_TR runs and what it may call.
