@@ -1,8 +1,21 @@
 #include <mgcloth/core/parallel.hpp>
 
+#include <dlfcn.h>
+
 namespace mgcloth {
 int num_threads() { return omp_get_max_threads(); }
 void set_num_threads(int n) {
-  if (n > 0) omp_set_num_threads(n);
+  if (n <= 0) return;
+  omp_set_num_threads(n);
+  // CHOLMOD's supernodal factorization runs in the BLAS, whose own thread pool (OpenBLAS starts one thread per core)
+  // ignores OpenMP's setting: with --threads 1 next to another job its threads spin and wait on the busy core
+  // (about a fifth of a level-6 shell solve's CPU time, measured with perf). The BLAS is whatever libblas.so.3 the
+  // system chose, so its thread control is looked up, not linked.
+  // CHOLMOD's own OpenMP loops ask for 4 threads by a num_threads clause (its compile-time default), which
+  // omp_set_num_threads does not override; with dynamic adjustment libgomp may give them fewer where the cores
+  // are busy, which is all a single-threaded run can ask for.
+  if (n == 1) omp_set_dynamic(1);
+  using SetThreads = void (*)(int);
+  if (auto* set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(n);
 }
 }  // namespace mgcloth

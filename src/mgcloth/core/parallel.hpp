@@ -8,7 +8,7 @@ namespace mgcloth {
 /// Runs f(i) for i in [0, n) on the OpenMP thread pool; small ranges run serially to avoid fork cost.
 template <class F>
 void parallel_for(Index n, F&& f, Index serial_below = 256) {
-  if (n < serial_below) {
+  if (n < serial_below || omp_get_max_threads() == 1) {
     for (Index i = 0; i < n; ++i) f(i);
     return;
   }

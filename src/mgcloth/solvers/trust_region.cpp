@@ -184,13 +184,17 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
     bool have_trial_gradient = false;
     double next = radius;
+    const bool newton_step = qp.reason == linalg::QpStop::Converged &&
+                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
     if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
       // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
-      // Where even the gradient no longer decreases, the limiting accuracy is reached.
+      // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken all
+      // the same: its predicted decrease, the Newton decrement ½gᵀH⁻¹g of a positive definite H, says that no
+      // more than round-off is left to gain here, and (7.1)'s second clause then ends the solve on its |Δf|.
       h.gradient(m_trial, m_g_trial);
       ++m_counters.gradient_assemblies;
       have_trial_gradient = true;
-      if (!(m_g_trial.norm() < gnorm)) {
+      if (!(m_g_trial.norm() < gnorm) && !newton_step) {
         res.status = "stalled";
         break;
       }
@@ -222,8 +226,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       step_taken = it.step_norm;
       last_df = std::abs(it.actual);
       last_dx = it.step_norm;
-      it.newton = qp.reason == linalg::QpStop::Converged &&
-                  ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
+      it.newton = newton_step;
       last_newton = it.newton;
     } else {
       // (7.1)'s second clause guards against meandering by tiny accepted steps; a rejected step leaves x as it was
