@@ -5,6 +5,7 @@
 
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/embedded/plot_convergence.hpp>
@@ -58,7 +59,7 @@ struct ScalabilityArgs {
 struct ShellArgs {
   std::vector<std::string> scenes;
   std::string levels = "1,2,3,4", solvers = "tr-dogleg,tr-stcg", out;
-  double time_step = 0.0, max_seconds = 0.0;
+  double time_step = 0.0, max_seconds = 0.0, checkpoint_seconds = 600.0;
   int max_iters = 0, threads = 0;
   bool quiet = false, verbose = false, resume = false;
 } g_shell;
@@ -344,6 +345,9 @@ int run_shells_command() {
   prepare_out_dir(out);
   opt.states_dir = (out / "states").string();
   opt.resume = g_shell.resume;
+  if (!(g_shell.checkpoint_seconds >= 0.0) || !std::isfinite(g_shell.checkpoint_seconds))
+    throw_input_error("--checkpoint-seconds: must be a number of seconds >= 0 (got {})", g_shell.checkpoint_seconds);
+  opt.checkpoint_seconds = g_shell.checkpoint_seconds;
   set_log_level(g_shell.quiet);
   if (g_shell.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
@@ -351,6 +355,8 @@ int run_shells_command() {
     write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
     write_file_atomic(out / "shells.json", sim::shell_bench_json(rows, opt).dump(2) + "\n");
   };
+  // Ctrl-C (or SIGTERM) ends the running solve at its next iteration with its state written; --resume goes on.
+  install_interrupt_handler();
   const auto rows = sim::run_shell_bench(scenes, opt, write);
   write(rows);
   std::string table = fmt::format("{:<12} {:>5} {:>7} {:<12} {:>10} {:>11} {:>10} {:>9}\n", "shell", "level", "dofs",
@@ -361,6 +367,10 @@ int run_shells_command() {
                          r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.wall_s);
   std::fputs(table.c_str(), stdout);
   std::printf("wrote %s: shells.csv, shells.json\n", out.string().c_str());
+  if (interrupted()) {
+    std::fprintf(stderr, "mgcloth: interrupted; continue with --resume\n");
+    return 130;
+  }
   return 0;
 }
 
@@ -537,6 +547,9 @@ void add_bench_command(CLI::App& app) {
   sh->add_flag("--resume", g_shell.resume,
                "Go on from the iterates an earlier run left in OUT/states (solves stopped by a cap continue, "
                "converged ones are kept)");
+  sh->add_option("--checkpoint-seconds", g_shell.checkpoint_seconds,
+                 "Write each tr-*/rmtr solve's state to OUT/states at most this often (0: only at its end)")
+      ->default_val(600.0);
 
   auto* ts = bench->add_subcommand(
       "timestep", "Largest time step at which each shell solver converges at every step (Kopanicakova 2019, Fig. 10)");

@@ -94,7 +94,8 @@ std::vector<Subject> subjects_from_obj(const fs::path& file) {
   spec.mesh.material_scale = g_hier.material_scale;
   spec.material = sim::material_preset(spec.preset);
   std::vector<Subject> out;
-  out.push_back({spec.name, file.string(), g_hier.out, build_body(spec, {}, sim::Scene{})});
+  const sim::Scene defaults;
+  out.push_back({spec.name, file.string(), g_hier.out, build_body(spec, {}, defaults)});
   return out;
 }
 

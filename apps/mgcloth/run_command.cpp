@@ -1,13 +1,13 @@
 #include "commands.hpp"
 #include "progress.hpp"
 
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/mesh/inspect.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/recorder.hpp>
 
-#include <csignal>
 #include <filesystem>
 
 namespace mgcloth::cli {
@@ -30,9 +30,6 @@ struct InfoOptions {
   std::string mesh;
   double material_scale = 1.0;
 } g_info;
-
-volatile std::sig_atomic_t g_interrupted = 0;
-void on_signal(int) { g_interrupted = 1; }
 
 int run() {
   if (g_run.verbose) logger().set_level(spdlog::level::debug);
@@ -74,10 +71,10 @@ int run() {
                                sim.scene().file, bodies, sim.obstacles().size(), sim.scene().solver.name, total,
                                sim.scene().substeps, sim.scene().step_size(), dir.string(),
                                g_run.resume ? fmt::format(" (resuming after frame {})", sim.frame()) : ""));
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  // The scene's solves are not interruptible: a signal ends the run after the frame in progress.
+  install_interrupt_handler();
   while (sim.frame() < total) {
-    if (g_interrupted) {
+    if (interrupted()) {
       progress.finish();
       std::fprintf(stderr, "mgcloth: interrupted after frame %d; continue with --resume\n", sim.frame());
       return 130;

@@ -502,6 +502,51 @@ TEST_F(Cli, ShellBenchResumesASolveStoppedByItsCap) {
   EXPECT_NE(r.out.find(state.string()), std::string::npos) << r.out;
 }
 
+// A long shell solve stopped by Ctrl-C (SIGINT) ends at its next iteration with its state and rows written and exit
+// status 130; one killed without warning (SIGKILL) leaves its last checkpoint. --resume goes on from either.
+TEST_F(Cli, ShellBenchKeepsItsStateWhenInterruptedOrKilled) {
+  const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_drape.json";
+  // The single-level TR needs thousands of iterations here (Table 3): it is still running when the signal comes.
+  const auto bench = [&](const fs::path& out, const std::string& extra) {
+    return fmt::format("{} bench shells {} --levels 4 --solvers tr-dogleg -j 1 -q -o {} {}", MGCLOTH_CLI, scene,
+                       out.string(), extra);
+  };
+  const auto state_of = [](const fs::path& out) {
+    return mgcloth::load_json((out / "states" / "drape-L4-tr-dogleg.state.json").string());
+  };
+  const auto shell = [](const std::string& cmd) {
+    const int status = std::system((cmd + " > /dev/null 2>&1").c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  const fs::path a = dir / "interrupted", b = dir / "killed";
+  EXPECT_EQ(shell("timeout --preserve-status -s INT 4 " + bench(a, "--max-iters 1000000")), 130);
+  const auto row = mgcloth::load_json((a / "shells.json").string())["results"][0];
+  EXPECT_EQ(row["status"], "interrupted");
+  const mgcloth::Json sa = state_of(a);
+  EXPECT_EQ(sa["status"], "interrupted");
+  const int done = sa["iterations"].get<int>();
+  EXPECT_GT(done, 0);
+  EXPECT_EQ(row["iterations"].get<int>(), done);
+  Result r = run(fmt::format("bench shells {} --levels 4 --solvers tr-dogleg -j 1 --max-iters 2 --resume -q -o {}",
+                             scene, a.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(state_of(a)["iterations"].get<int>(), done + 2);
+
+  EXPECT_NE(shell("timeout -s KILL 4 " + bench(b, "--max-iters 1000000 --checkpoint-seconds 0.2")), 0);
+  EXPECT_FALSE(fs::exists(b / "shells.json"));  // no solve finished
+  const mgcloth::Json sb = state_of(b);
+  EXPECT_EQ(sb["status"], "checkpoint");
+  const int checkpointed = sb["iterations"].get<int>();
+  EXPECT_GT(checkpointed, 0);
+  r = run(fmt::format("bench shells {} --levels 4 --solvers tr-dogleg -j 1 --max-iters 2 --resume -q -o {}", scene,
+                      b.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(state_of(b)["iterations"].get<int>(), checkpointed + 2);
+  r = run(fmt::format("bench shells {} --levels 4 --checkpoint-seconds -1 -o {}", scene, b.string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("--checkpoint-seconds"), std::string::npos) << r.out;
+}
+
 // The time-step study from the command line: a row per tried dt in the CSV, the largest passing dt in the table,
 // and one-line errors naming the offending option.
 TEST_F(Cli, TimestepBenchWritesARowPerTriedStepAndRejectsBadInput) {

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/solvers/factory.hpp>
 #include <mgcloth/solvers/newton_variants.hpp>
@@ -374,6 +375,43 @@ TEST(TrustRegion, NewtonStepsActivateTheStagnationClauseAtTheLimitingAccuracy) {
   EXPECT_LT(rep.iterations, 60);
   EXPECT_LE(counter(rep, "final_radius"), 10.0);
   EXPECT_LT(rep.grad_norm, 1e-10 * rep.initial_grad_norm);
+}
+
+TEST(TrustRegion, InterruptibleSolvesStopOnTheFlagAndCheckpointAcceptedIterates) {
+  auto t = convex_chain();
+  auto problem = t.problem();
+  solvers::TrustRegion tr;
+  solvers::Stop stop = tight();
+  stop.checkpoint_seconds = 0.0;  // after every accepted step
+  std::vector<std::pair<int, double>> calls;
+  VecX last;
+  stop.checkpoint = [&](const VecX& x, int iterations, double energy, double) {
+    calls.emplace_back(iterations, energy);
+    last = x;
+  };
+  VecX x = t.x0;
+  const auto rep = tr.minimize(problem, x, stop, nullptr);
+  ASSERT_TRUE(rep.converged) << rep.status;
+  EXPECT_EQ(static_cast<double>(calls.size()), counter(rep, "accepted"));
+  for (size_t i = 1; i < calls.size(); ++i) {
+    EXPECT_GT(calls[i].first, calls[i - 1].first);
+    EXPECT_LE(calls[i].second, calls[i - 1].second);
+  }
+  EXPECT_EQ(last, x);  // the last step was accepted: its iterate is the result
+
+  mgcloth::set_interrupted(true);
+  x = t.x0;
+  stop.checkpoint = nullptr;
+  const auto kept = tr.minimize(problem, x, stop, nullptr);  // not interruptible: unaffected
+  EXPECT_TRUE(kept.converged);
+  stop.interruptible = true;
+  x = t.x0;
+  const auto stopped = tr.minimize(problem, x, stop, nullptr);
+  mgcloth::set_interrupted(false);
+  EXPECT_EQ(stopped.status, "interrupted");
+  EXPECT_FALSE(stopped.converged);
+  EXPECT_EQ(stopped.iterations, 0);
+  EXPECT_EQ(x, t.x0);
 }
 
 TEST(TrustRegion, LocalTrMinimizesTheLevelModelWithItsLinearTerm) {

@@ -1,4 +1,5 @@
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
@@ -106,6 +107,7 @@ Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, co
   scene.solver.params = spec.config.params;
   if (opt.max_iters > 0) scene.solver.stop.max_iters = opt.max_iters;
   if (opt.max_seconds > 0.0) scene.solver.stop.max_seconds = opt.max_seconds;
+  scene.solver.stop.interruptible = true;  // stops only where the caller installed mgcloth's signal handler
   return scene;
 }
 
@@ -152,8 +154,33 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
                           before->iterations, state.string());
           }
           Timer timer;
+          solvers::Stop stop = scene.solver.stop;
+          if (!state.empty() && opt.checkpoint_seconds > 0.0) {
+            // A state every checkpoint_seconds, so that a run killed without warning (SIGKILL, a lost machine)
+            // resumes from its last one; it is replaced by the solve's final state.
+            VecX g0;
+            problem.objective->gradient(x, g0);
+            const double g0_norm = before ? before->initial_grad_norm : g0.norm();
+            stop.checkpoint_seconds = opt.checkpoint_seconds;
+            stop.checkpoint = [&, g0_norm](const VecX& xc, int iterations, double energy, double grad_norm) {
+              ShellBenchRow c = row;
+              c.iterations = iterations + (before ? before->iterations : 0);
+              c.converged = false;
+              c.status = "checkpoint";
+              c.energy = energy;
+              c.grad_norm = grad_norm;
+              c.initial_grad_norm = g0_norm;
+              c.wall_s = timer.seconds() + (before ? before->wall_s : 0.0);
+              if (before)
+                for (const auto& [k, v] : before->counters)
+                  if (k.find("_nested_cycles") != std::string::npos) c.counters.emplace_back(k, v);
+              write_state(state, c, xc);
+              logger().debug("{} level {} {}: checkpoint after {} iterations ({})", row.shell, level, spec.label,
+                             c.iterations, state.string());
+            };
+          }
           try {
-            const auto rep = sim.shell_solver(s).minimize(problem, x, scene.solver.stop, nullptr);
+            const auto rep = sim.shell_solver(s).minimize(problem, x, stop, nullptr);
             row.iterations = rep.iterations;
             row.converged = rep.converged;
             row.status = rep.status;
@@ -180,6 +207,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
                         spec.label, row.iterations, row.status, row.wall_s);
           rows.push_back(std::move(row));
           if (on_row) on_row(rows);
+          if (interrupted()) return rows;  // the interrupted solve's state is written; the rest is not started
         }
       }
   }

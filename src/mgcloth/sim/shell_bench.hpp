@@ -22,6 +22,9 @@ struct ShellBenchOptions {
   /// solved again). RMTR then skips nested iteration (initial: fine). Iterations and wall time add up; the counters
   /// are those of the last part, plus `resumed_iterations` (the parts before) and the nested cycles of the first.
   bool resume = false;
+  /// With states_dir, > 0: `tr-*` and `rmtr` solves also write their state (status "checkpoint") at most this
+  /// often, in seconds, so that a killed run loses at most that much.
+  double checkpoint_seconds = 600.0;
 };
 
 struct ShellBenchRow {

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/solvers/nonlinear_fmg.hpp>
@@ -327,8 +328,8 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
         done = true;
         break;
       }
-      if (timer.seconds() > stop.max_seconds) {
-        rep.status = "time_limit";
+      if (timer.seconds() > stop.max_seconds || (stop.interruptible && interrupted())) {
+        rep.status = timer.seconds() > stop.max_seconds ? "time_limit" : "interrupted";
         done = true;
         break;
       }

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <cmath>
@@ -14,6 +15,7 @@ void check_finite(const std::string& solver, double energy, double grad_norm, in
 bool should_stop(double grad_norm, double target, double seconds, const Stop& stop, SolveReport& report) {
   if (grad_norm <= target) report.status = "converged";
   else if (seconds > stop.max_seconds) report.status = "time_limit";
+  else if (stop.interruptible && interrupted()) report.status = "interrupted";
   else return false;
   return true;
 }

@@ -43,6 +43,13 @@ struct Stop {
   double abs_grad = 0.0;   ///< or when |∇E(x)| <= abs_grad
   int max_iters = 100;
   double max_seconds = kInf;
+  /// Stop with status "interrupted" once mgcloth::interrupted() (SIGINT or SIGTERM under the CLI's handler).
+  bool interruptible = false;
+  /// Called with the current iterate, its iteration count, energy and gradient norm at most every
+  /// checkpoint_seconds (after an accepted step or a V-cycle; `tr-*` and `rmtr`), so that a run killed without
+  /// warning can go on from there.
+  std::function<void(const VecX& x, int iterations, double energy, double grad_norm)> checkpoint;
+  double checkpoint_seconds = 600.0;
 };
 
 /// One row per iteration (iteration 0 is the start point).

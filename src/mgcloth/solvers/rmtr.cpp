@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
 #include <mgcloth/solvers/rmtr.hpp>
@@ -255,6 +256,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     m_start_gradient = &L.tr->gradient();
     if (r1.status == "stalled") m_finest_stalled = true;
     if (r1.iterations > 0) m_finest_newton = L.tr->history().back().newton;
+    if (r1.status == "stagnated") m_finest_stagnated = true;
     record(fx);
   }
   const auto finish = [&](bool converged) {
@@ -374,6 +376,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     m_finest_energy = fx;
     if (r2.status == "stalled") m_finest_stalled = true;
     if (r2.iterations > 0) m_finest_newton = L.tr->history().back().newton;
+    if (r2.status == "stagnated") m_finest_stagnated = true;
     record(fx);
   }
   if (r2.status == "radius_exhausted") ++C.radius_exhausted;
@@ -408,7 +411,7 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
   const std::vector<VecX> x0s = xs;
   m_nested_cycles.assign(static_cast<size_t>(top), 0);
   for (int t = 0; t < top; ++t) {
-    if (base.timer && base.timer->seconds() >= base.max_seconds) break;
+    if ((base.timer && base.timer->seconds() >= base.max_seconds) || (base.interruptible && interrupted())) break;
     Level& L = *m_levels[static_cast<size_t>(t)];
     RmtrLevelCounters& C = m_counters[static_cast<size_t>(t)];
     VecX& xt = xs[static_cast<size_t>(t)];
@@ -461,14 +464,16 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
       m_finest_energy = f;
       m_start_gradient = &g;
       while (cycles < m_params.nested_max_cycles) {
-        if (base.timer && base.timer->seconds() >= base.max_seconds) break;
+        if ((base.timer && base.timer->seconds() >= base.max_seconds) || (base.interruptible && interrupted())) break;
         const VecX before = xt;
         m_finest_stalled = false;
+        m_finest_stagnated = false;
         const CycleResult r = visit(t, xt, nullptr, nullptr, kInf, c);
         ++cycles;
         energies.push_back(m_finest_energy);
         if (r.converged || L.tr->gradient().norm() <= c.abs_grad) break;
         if (m_finest_stalled && (xt - before).norm() == 0.0) break;
+        if (m_finest_stagnated) break;  // this level's limiting accuracy: its target is out of reach
         if (settled()) break;
       }
       m_start_gradient = nullptr;
@@ -531,6 +536,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   LocalTrControl base;
   base.abs_grad = stop.abs_grad;
   base.max_seconds = stop.max_seconds;
+  base.interruptible = stop.interruptible;
   base.timer = &timer;
   base.project = problem.project;
   // The start point's energy and gradient, shared with the first pre-smoothing. The report's initial gradient, the
@@ -564,6 +570,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   m_finest_energies.push_back(m_finest_energy);
   double last_df = kInf, last_dx = kInf, last_radius = 0.0;
   bool last_newton = false;
+  double last_checkpoint = timer.seconds();
   int cycle = 0;
   VecX previous;
   for (;; ++cycle) {
@@ -584,6 +591,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     const double f_before = m_finest_energy;
     m_finest_stalled = false;
     m_finest_newton = false;
+    m_finest_stagnated = false;
     visit(static_cast<int>(m_levels.size()) - 1, x, nullptr, nullptr, kInf, base);
     gnorm = F.tr->gradient().norm();
     check_finite(m_name, m_finest_energy, gnorm, cycle + 1);
@@ -591,12 +599,21 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     last_dx = (x - previous).norm();
     last_radius = m_radius;
     last_newton = m_finest_newton;
+    if (stop.checkpoint && timer.seconds() - last_checkpoint >= stop.checkpoint_seconds) {
+      stop.checkpoint(x, cycle + 1, m_finest_energy, gnorm);
+      last_checkpoint = timer.seconds();
+    }
     if (trace) trace->push_back({cycle + 1, m_finest_energy, gnorm, timer.ms(), last_dx});
     logger().debug("rmtr cycle {:4d}: E = {:.12e}  |g| = {:.3e}  radius {:.3e}", cycle + 1, m_finest_energy, gnorm,
                    m_radius);
     if (last_dx == 0.0 && m_finest_stalled) {
       ++cycle;
       rep.status = "stalled";
+      break;
+    }
+    if (m_finest_stagnated && gnorm > target) {
+      ++cycle;
+      rep.status = "stagnated";
       break;
     }
   }

@@ -166,6 +166,7 @@ class Rmtr final : public NonlinearSolver {
   linalg::BlockMatrix3 m_scaling_hessian;
   bool m_finest_stalled = false;  ///< a finest Local_TR run of the current cycle stopped as "stalled"
   bool m_finest_newton = false;   ///< the current cycle's last finest smoothing step was a Newton step
+  bool m_finest_stagnated = false;  ///< a finest smoothing run of the current cycle reached the limiting accuracy
   std::vector<RmtrLevelCounters> m_counters;
   std::vector<RmtrCorrection> m_corrections;
   std::vector<double> m_finest_energies;

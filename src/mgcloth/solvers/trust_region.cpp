@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/solvers/trust_region.hpp>
 
@@ -114,11 +115,13 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
   // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1), and whether it was a Newton step.
   double last_df = kInf, last_dx = kInf, last_radius = 0.0;
   bool last_newton = false;
+  double last_checkpoint = clock.seconds();
   res.status = "max_iters";
   int i = 0;
   for (; i < control.max_iters; ++i) {
     if (gnorm <= res.grad_target) res.status = "converged";
     else if (clock.seconds() > control.max_seconds) res.status = "time_limit";
+    else if (control.interruptible && interrupted()) res.status = "interrupted";
     else if ((last_radius > p.stagnation_delta || last_newton) &&
              (last_df < p.stagnation_tol || last_dx < p.stagnation_tol))
       res.status = "stagnated";
@@ -182,15 +185,16 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     ++m_counters.energy_evaluations;
     it.actual = f - f_trial;
     it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
-    bool have_trial_gradient = false;
+    bool have_trial_gradient = false, limiting_accuracy = false;
     double next = radius;
     const bool newton_step = qp.reason == linalg::QpStop::Converged &&
                              ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
     if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
       // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
-      // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken all
-      // the same: its predicted decrease, the Newton decrement ½gᵀH⁻¹g of a positive definite H, says that no
-      // more than round-off is left to gain here, and (7.1)'s second clause then ends the solve on its |Δf|.
+      // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken and
+      // ends the solve as "stagnated", the limiting accuracy of (7.1)'s second clause: its predicted decrease is
+      // the Newton decrement ½gᵀH⁻¹g of a positive definite H, so no more than round-off of the energy is left
+      // to gain (a scale-free form of |Δf| < 1e-12, which the coarse levels' energies of 1e6 J never meet).
       h.gradient(m_trial, m_g_trial);
       ++m_counters.gradient_assemblies;
       have_trial_gradient = true;
@@ -199,6 +203,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         break;
       }
       it.accepted = true;
+      limiting_accuracy = newton_step;
     } else {
       // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
       it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
@@ -223,6 +228,10 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       gnorm = m_g.norm();
       check_finite(m_name, f, gnorm, i + 1);
       have_hessian = false;
+      if (control.checkpoint && clock.seconds() - last_checkpoint >= control.checkpoint_seconds) {
+        control.checkpoint(x, i + 1, f, gnorm);
+        last_checkpoint = clock.seconds();
+      }
       step_taken = it.step_norm;
       last_df = std::abs(it.actual);
       last_dx = it.step_norm;
@@ -246,6 +255,11 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
                    linalg::to_string(qp.reason),
                    p.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift()) : "");
     radius = next;
+    if (limiting_accuracy) {
+      ++i;
+      res.status = "stagnated";
+      break;
+    }
     if (!(radius > 0.0)) {
       ++i;
       res.status = "radius_exhausted";
@@ -270,6 +284,9 @@ SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, T
   control.rel_grad = stop.rel_grad;
   control.abs_grad = stop.abs_grad;
   control.max_seconds = stop.max_seconds;
+  control.interruptible = stop.interruptible;
+  control.checkpoint = stop.checkpoint;
+  control.checkpoint_seconds = stop.checkpoint_seconds;
   control.timer = &timer;
   control.trace = trace;
   control.project = problem.project;

@@ -122,6 +122,10 @@ struct LocalTrControl {
   double rel_grad = 0.0;
   double abs_grad = 0.0;
   double max_seconds = kInf;
+  bool interruptible = false;  ///< stop as "interrupted" once mgcloth::interrupted()
+  /// Stop::checkpoint, called after accepted steps at most every checkpoint_seconds.
+  std::function<void(const VecX&, int, double, double)> checkpoint;
+  double checkpoint_seconds = 600.0;
   const Timer* timer = nullptr;  ///< clock of the time limit and of trace wall times (own clock when null)
   Trace* trace = nullptr;        ///< receives the start row and one row per iteration
   /// Applied to each new radius: Δ_{i+1} = radius_cap(x_{i+1}, Δ₊); for RMTR's coarse-level limit (Alg. 4.3,
