@@ -256,6 +256,23 @@ TEST(TrustRegion, HangingChainMinimizersAgreeAcrossSolvers) {
   }
 }
 
+TEST(TrustRegion, HybridHessianTakesTheProjectedModelOnlyWhereTheExactOneIsIndefinite) {
+  // "hessian": "hybrid": the compressed start has an indefinite H, so the first models are projected; near the
+  // straight hanging state H is positive definite and the exact model's Newton steps finish the solve.
+  auto t = hanging_chain();
+  auto problem = t.problem();
+  VecX exact = t.x0, hybrid = t.x0;
+  const auto ref = by_name("tr-dogleg")->minimize(problem, exact, tight(), nullptr);
+  ASSERT_TRUE(ref.converged) << ref.status;
+  const auto rep = by_name("tr-dogleg", Json{{"hessian", "hybrid"}})->minimize(problem, hybrid, tight(), nullptr);
+  ASSERT_TRUE(rep.converged) << rep.status;
+  EXPECT_GT(counter(rep, "projected_models"), 0);
+  EXPECT_LT(counter(rep, "projected_models"), counter(rep, "accepted"));
+  EXPECT_EQ(counter(ref, "projected_models"), 0);
+  EXPECT_LE((hybrid - exact).norm(), 1e-7);
+  EXPECT_GT(min_eigenvalue(*t.objective, hybrid), 0.0);
+}
+
 TEST(TrustRegion, AcceptedEnergiesDecreaseAndRejectionsShrinkTheRadius) {
   auto t = rosenbrock_chain();
   for (const auto qp : {solvers::TrQp::Dogleg, solvers::TrQp::SteihaugCg}) {

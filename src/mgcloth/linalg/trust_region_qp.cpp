@@ -257,13 +257,18 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
 }
 
 ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts, double start,
-                                       int bisections) {
+                                       int bisections, bool* not_definite) {
   // CHOLMOD "factorizes" a matrix with NaN entries (its pivot tests compare false) and the solve returns NaN.
   for (const Mat3& b : H.blocks())
     if (!b.allFinite()) throw SolveError("factorize_shifted: the matrix has a non-finite entry");
   ShiftedFactorization f;
   ++f.attempts;
+  if (not_definite) *not_definite = false;
   if (solver.factorize(H, 0.0)) return f;
+  if (not_definite) {
+    *not_definite = true;
+    return f;
+  }
   f.failed = 0.0;
   double scale = 0.0;
   for (Index i = 0; i < H.rows(); ++i) scale = std::max(scale, H.block(H.diagonal(i)).diagonal().cwiseAbs().maxCoeff());
@@ -311,6 +316,7 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* met
   m_metric = metric;
   m_H = &H;
   m_tried.clear();
+  m_definite_failed = false;
   // In ‖·‖_M the first leg runs along −y = −M⁻¹g. Since My = g, every M-inner product step() needs is one of
   // the model's scalars already: ‖y‖²_M = gᵀy, yᵀMp_B = gᵀp_B; only ‖p_B‖_M costs an M product.
   if (metric) metric->solve(g, m_y);
@@ -327,7 +333,18 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* met
   VecX Hv;
   H.multiply(m_y, Hv);
   m_gHg = m_y.dot(Hv);
-  const auto f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections);
+  ShiftedFactorization f;
+  if (m_definite_only) {
+    // One attempt at H itself (factorize_shifted's first), no shift ladder.
+    f = factorize_shifted(m_cholmod, H, 1, 0.0, 0, &m_definite_failed);
+    if (m_definite_failed) {
+      ++m_factorizations;
+      m_prepared = false;
+      return;
+    }
+  } else {
+    f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections);
+  }
   m_factorizations += f.attempts;
   if (f.shift > 0.0) ++m_fallbacks;
   m_factor_holds = true;

@@ -108,8 +108,9 @@ struct ShiftedFactorization {
 /// `bisections` > 0 then narrows λ between the last failed and the first successful shift by that many
 /// geometric bisections (each one factorization, plus one where the last one failed), so that λ is within a
 /// factor 10^(2^-bisections) of the smallest shift that factorizes.
+/// With `not_definite` non-null, an H that is not positive definite returns at once with *not_definite = true.
 ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts = 40,
-                                       double start = 0.0, int bisections = 0);
+                                       double start = 0.0, int bisections = 0, bool* not_definite = nullptr);
 
 /// Powell's dogleg (Nocedal-Wright §4.1) on the exact Hessian. prepare() factorizes once per point x and computes
 /// the Cauchy and Newton points; step() then returns the dogleg point for any radius without refactoring, so a
@@ -130,6 +131,14 @@ class Dogleg {
   /// moves λ so that the Newton point of H + λI lies on the boundary (radius_shift), which refactorizes; H and g of
   /// prepare() must then still be alive and unchanged.
   QpResult step(double delta);
+  /// prepare() that factorizes H itself only: returns false, and leaves the dogleg unprepared, where H is not
+  /// positive definite (one failed factorization), so that the caller can choose another model.
+  bool prepare_definite(const BlockMatrix3& H, const VecX& g, const NormMetric* metric = nullptr) {
+    m_definite_only = true;
+    prepare(H, g, metric);
+    m_definite_only = false;
+    return !m_definite_failed;
+  }
   /// Geometric bisections of the shift of an indefinite H (factorize_shifted); 0: the first decade that works.
   void set_shift_bisections(int n) { m_bisections = n; }
   /// Where H is indefinite, choose λ by the radius (the secular equation ‖(H + λI)⁻¹g‖ = Δ) instead of by the
@@ -160,6 +169,7 @@ class Dogleg {
   void radius_shift(double delta);
   int m_bisections = 0;
   bool m_radius_shift = false;
+  bool m_definite_only = false, m_definite_failed = false;
 
   CholmodSolver m_cholmod;
   const NormMetric* m_metric = nullptr;

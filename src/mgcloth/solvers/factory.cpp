@@ -132,7 +132,10 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.stagnation_tol = r.number("stagnation_tol", p.stagnation_tol, 0.0, 1.0);
   p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
-  p.psd_hessian = r.choice("hessian", p.psd_hessian ? "projected" : "exact", {"exact", "projected"}) == "projected";
+  const std::string hessian = r.choice("hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact",
+                                       {"exact", "projected", "hybrid"});
+  p.psd_hessian = hessian == "projected";
+  p.hybrid_hessian = hessian == "hybrid";
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
   p.radius_shift = r.choice("shift", p.radius_shift ? "radius" : "factorize", {"factorize", "radius"}) == "radius";
@@ -148,7 +151,7 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"stagnation_tol", p.stagnation_tol},
             {"stagnation_delta", p.stagnation_delta},
             {"roundoff_tol", p.roundoff_tol},
-            {"hessian", p.psd_hessian ? "projected" : "exact"},
+            {"hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact"},
             {"shrink_from_step", p.shrink_from_step},
             {"shift_bisections", p.shift_bisections},
             {"shift", p.radius_shift ? "radius" : "factorize"}};

@@ -83,6 +83,7 @@ struct RmtrLevelCounters {
   int radius_exhausted = 0;        ///< visits that ended because the fine radius was used up (Alg. 4.3)
   int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
   int cholmod_fallbacks = 0;       ///< dogleg steps whose Hessian needed a shift H + λI (it was indefinite)
+  int projected_models = 0;        ///< "hessian": "hybrid": dogleg steps on the projected Hessian
   int corrections_backtracked = 0; ///< corrections_accepted that were rejected whole and accepted as x + αs, α < 1
   int factorizations = 0;          ///< numeric CHOLMOD factorizations of the dogleg, shifted retries included
 };

@@ -138,7 +138,18 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         try {
           m_dogleg.set_shift_bisections(p.shift_bisections);
           m_dogleg.set_radius_shift(p.radius_shift);
-          m_dogleg.prepare(m_hessian, m_g, control.metric);
+          m_model_exact = !p.psd_hessian;
+          if (!p.hybrid_hessian || p.psd_hessian) {
+            m_dogleg.prepare(m_hessian, m_g, control.metric);
+          } else if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
+            // Indefinite: every element Hessian projected to positive semidefinite convexifies only where the
+            // energy is concave, where H + λI damps every direction alike by λ.
+            h.hessian(x, m_hessian, true);
+            ++m_counters.hessian_assemblies;
+            ++m_counters.projected_models;
+            m_model_exact = false;
+            m_dogleg.prepare(m_hessian, m_g, control.metric);
+          }
         } catch (const SolveError& e) {
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
         }
@@ -187,8 +198,9 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
     bool have_trial_gradient = false, limiting_accuracy = false;
     double next = radius;
-    const bool newton_step = qp.reason == linalg::QpStop::Converged &&
-                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
+    const bool newton_step = qp.reason == linalg::QpStop::Converged && !p.psd_hessian &&
+                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0 && m_model_exact) ||
+                              p.qp == TrQp::Exact);
     if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
       // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
       // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken and
@@ -306,6 +318,7 @@ SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, T
                   {"cg_iterations", static_cast<double>(c.cg_iterations)},
                   {"factorizations", c.factorizations},
                   {"cholmod_fallbacks", c.cholmod_fallbacks},
+                  {"projected_models", c.projected_models},
                   {"final_radius", radius}};
   return rep;
 }

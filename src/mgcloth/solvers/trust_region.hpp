@@ -44,6 +44,9 @@ struct TrustRegionParams {
   /// The model's Hessian: exact (false, the paper) or with every element Hessian projected to positive semidefinite
   /// (true, beyond the paper: the projected Newton of the cloth solvers, a convex model that needs no shift).
   bool psd_hessian = false;
+  /// Dogleg, "hessian": "hybrid" (beyond the paper): the exact Hessian where it is positive definite, the projected
+  /// one (psd_hessian) where it is not, instead of the exact one shifted by λI.
+  bool hybrid_hessian = false;
   /// Dogleg: geometric bisections of the shift λ where H is indefinite (0: the first decade that factorizes).
   int shift_bisections = 0;
   /// Dogleg ("shift": "radius"): where H is indefinite, λ solves ‖(H + λI)⁻¹g‖ = Δ (to 10%, at most 6 more
@@ -97,6 +100,7 @@ struct TrCounters {
   long cg_iterations = 0;
   int factorizations = 0;     ///< numeric CHOLMOD factorizations (dogleg), shifted retries included
   int cholmod_fallbacks = 0;  ///< dogleg preparations whose H was not positive definite
+  int projected_models = 0;   ///< "hybrid": points where the exact H was indefinite and the projected one was used
 };
 
 /// One Local_TR iteration, accepted or rejected.
@@ -184,6 +188,7 @@ class LocalTrustRegion {
   TrustRegionParams m_params;
   std::string m_name;
   linalg::Dogleg m_dogleg;
+  bool m_model_exact = true;  ///< the current model's Hessian is the exact one (not projected)
   linalg::ExactTrustRegion m_exact;
   std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
   std::unique_ptr<linalg::PatchSmoother> m_patches;
