@@ -7,7 +7,8 @@ Every CSV is a shells.csv of `mgcloth bench shells`. Rows are picked by solver: 
 SPEC (the RMTR configuration studied, e.g. rmtr@smoother=schwarz@smoother_sweeps=1@initial=nested) and, for
 Table 8, the --ls SPEC (the same with projection=least_squares). Where several files hold the same (scene, level,
 solver), the last one given wins. A cell is the iteration (V-cycle) count, with the wall time in seconds:
-`N` converged (‖g‖ < 1e-7), `N s` stalled by the second clause of (7.1) with ‖g‖/‖g₀‖ < 1e-5 (which the paper
+`N` converged (‖g‖ < 1e-7), `N (7.1b)` stopped by the second clause of (7.1), the
+limiting accuracy (status stagnated, converged by (7.1)), `N s` stalled by the second clause of (7.1) with ‖g‖/‖g₀‖ < 1e-5 (which the paper
 counts as convergence), `> N, ‖g‖ = …` not converged (cap, or a stall far from a minimum), `—` not run.
 Work units (Tables 6-7) are eq. 7.3: the bench's work_assembly and work_qp columns for RMTR, and Hessian
 assemblies and QP calls for the single-level TR (W^L = 1 per call).
@@ -42,6 +43,8 @@ def load(paths):
 def solved(r):
     if r["status"] == "converged":
         return "yes"
+    if r["status"] == "stagnated":  # (7.1)'s second clause, which the solver counts as converged
+        return "stagnated"
     if r["status"] == "stalled" and float(r["rel_grad"]) < 1e-5:
         return "stalled"
     return "no"
@@ -57,6 +60,8 @@ def cell(r, with_time=True):
         return f"{n:,}{t}"
     if s == "stalled":
         return f"{n:,} s{t}"
+    if s == "stagnated":
+        return f"{n:,} (7.1b){t}, ‖g‖ = {float(r['grad_norm']):.1e}"
     return f"> {n:,}{t}, ‖g‖ = {float(r['grad_norm']):.1e}"
 
 

@@ -257,8 +257,9 @@ TEST(TrustRegion, HangingChainMinimizersAgreeAcrossSolvers) {
 }
 
 TEST(TrustRegion, HybridHessianTakesTheProjectedModelOnlyWhereTheExactOneIsIndefinite) {
-  // "hessian": "hybrid": the compressed start has an indefinite H, so the first models are projected; near the
-  // straight hanging state H is positive definite and the exact model's Newton steps finish the solve.
+  // "hessian": "hybrid": the compressed start has an indefinite H, so the first models are the projected ones (this
+  // test energy has no projection of its own, so they are shifted by the dogleg: the test covers the switching);
+  // near the straight hanging state H is positive definite and the exact model's Newton steps finish the solve.
   auto t = hanging_chain();
   auto problem = t.problem();
   VecX exact = t.x0, hybrid = t.x0;
