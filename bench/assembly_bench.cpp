@@ -11,6 +11,8 @@
 #include <mgcloth/physics/membrane.hpp>
 #include <mgcloth/physics/objective.hpp>
 
+#include "best_ms.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <cmath>
@@ -19,19 +21,9 @@
 
 using namespace mgcloth;
 
-namespace {
+using bench::best_ms;
 
-/// Best of `repeat` runs, in ms (the first run is a warm-up of caches and thread pool).
-double best_ms(int repeat, const std::function<void()>& f) {
-  f();
-  double best = 1e300;
-  for (int r = 0; r < repeat; ++r) {
-    Timer t;
-    f();
-    best = std::min(best, t.ms());
-  }
-  return best;
-}
+namespace {
 
 /// The element Hessians of `term` computed by `hessian(e, xe, He)` for every element, without the scatter (the
 /// element work of ElementTerm::add_hessian); returns a checksum so that the work is not optimized away.

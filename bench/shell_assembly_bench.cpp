@@ -8,6 +8,8 @@
 #include <mgcloth/sim/scene.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include "best_ms.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <cmath>
@@ -16,20 +18,7 @@
 
 using namespace mgcloth;
 
-namespace {
-
-double best_ms(int repeat, const std::function<void()>& f) {
-  f();
-  double best = 1e300;
-  for (int r = 0; r < repeat; ++r) {
-    Timer t;
-    f();
-    best = std::min(best, t.ms());
-  }
-  return best;
-}
-
-}  // namespace
+using bench::best_ms;
 
 int main(int argc, char** argv) {
   CLI::App app{"mgcloth shell assembly benchmark"};
