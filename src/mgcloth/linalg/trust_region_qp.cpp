@@ -312,11 +312,14 @@ ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3
 }
 
 void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* metric) {
+  prepare_model(H, g, metric, false);
+}
+
+bool Dogleg::prepare_model(const BlockMatrix3& H, const VecX& g, const NormMetric* metric, bool definite_only) {
   check_metric(metric, static_cast<Index>(g.size()), "Dogleg::prepare");
   m_metric = metric;
   m_H = &H;
   m_tried.clear();
-  m_definite_failed = false;
   // In ‖·‖_M the first leg runs along −y = −M⁻¹g. Since My = g, every M-inner product step() needs is one of
   // the model's scalars already: ‖y‖²_M = gᵀy, yᵀMp_B = gᵀp_B; only ‖p_B‖_M costs an M product.
   if (metric) metric->solve(g, m_y);
@@ -327,30 +330,25 @@ void Dogleg::prepare(const BlockMatrix3& H, const VecX& g, const NormMetric* met
   if (m_g_norm == 0.0) {
     m_newton = VecX::Zero(g.size());
     m_gHg = m_gp = m_gHp = m_pHp = m_newton_norm = 0.0;
-    return;
+    return true;
   }
   m_g = g;
   VecX Hv;
   H.multiply(m_y, Hv);
   m_gHg = m_y.dot(Hv);
-  ShiftedFactorization f;
-  if (m_definite_only) {
-    // One attempt at H itself (factorize_shifted's first), no shift ladder.
-    f = factorize_shifted(m_cholmod, H, 1, 0.0, 0, &m_definite_failed);
-    if (m_definite_failed) {
-      ++m_factorizations;
-      m_prepared = false;
-      return;
-    }
-  } else {
-    f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections);
-  }
+  bool not_definite = false;
+  const auto f = factorize_shifted(m_cholmod, H, 40, m_shift, m_bisections, definite_only ? &not_definite : nullptr);
   m_factorizations += f.attempts;
+  if (not_definite) {
+    m_prepared = m_factor_holds = false;
+    return false;
+  }
   if (f.shift > 0.0) ++m_fallbacks;
   m_factor_holds = true;
   if (f.failed >= 0.0) m_tried.emplace_back(f.failed, kInf);
   const bool finite = newton_point(f.shift, true);
   if (f.shift > 0.0) m_tried.emplace_back(f.shift, finite ? m_newton_norm : kInf);
+  return true;
 }
 
 bool Dogleg::newton_point(double shift, bool keep_overflow) {

@@ -134,10 +134,7 @@ class Dogleg {
   /// prepare() that factorizes H itself only: returns false, and leaves the dogleg unprepared, where H is not
   /// positive definite (one failed factorization), so that the caller can choose another model.
   bool prepare_definite(const BlockMatrix3& H, const VecX& g, const NormMetric* metric = nullptr) {
-    m_definite_only = true;
-    prepare(H, g, metric);
-    m_definite_only = false;
-    return !m_definite_failed;
+    return prepare_model(H, g, metric, /*definite_only=*/true);
   }
   /// Geometric bisections of the shift of an indefinite H (factorize_shifted); 0: the first decade that works.
   void set_shift_bisections(int n) { m_bisections = n; }
@@ -157,6 +154,8 @@ class Dogleg {
   double newton_norm() const { return m_newton_norm; }
 
  private:
+  /// prepare(); with definite_only, false (and unprepared) where H itself does not factorize.
+  bool prepare_model(const BlockMatrix3& H, const VecX& g, const NormMetric* metric, bool definite_only);
   /// Model decrease −(gᵀs + ½ sᵀHs) of s = a·y + b·p_B, from the scalar products computed in prepare().
   double decrease(double a, double b) const;
   /// p_B = −(H + λI)⁻¹g from the factor the solver holds, and the scalars of p_B. Where the solve overflows:
@@ -169,7 +168,6 @@ class Dogleg {
   void radius_shift(double delta);
   int m_bisections = 0;
   bool m_radius_shift = false;
-  bool m_definite_only = false, m_definite_failed = false;
 
   CholmodSolver m_cholmod;
   const NormMetric* m_metric = nullptr;

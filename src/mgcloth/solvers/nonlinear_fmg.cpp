@@ -328,8 +328,9 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
         done = true;
         break;
       }
-      if (timer.seconds() > stop.max_seconds || (stop.interruptible && interrupted())) {
-        rep.status = timer.seconds() > stop.max_seconds ? "time_limit" : "interrupted";
+      const bool late = timer.seconds() > stop.max_seconds;
+      if (late || (stop.interruptible && interrupted())) {
+        rep.status = late ? "time_limit" : "interrupted";
         done = true;
         break;
       }

@@ -133,12 +133,12 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     if (!have_hessian) {
       h.hessian(x, m_hessian, p.psd_hessian);
       ++m_counters.hessian_assemblies;
+      m_model_exact = !p.psd_hessian;
       if (p.qp == TrQp::Dogleg) {
         const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
         try {
           m_dogleg.set_shift_bisections(p.shift_bisections);
           m_dogleg.set_radius_shift(p.radius_shift);
-          m_model_exact = !p.psd_hessian;
           if (!p.hybrid_hessian || p.psd_hessian) {
             m_dogleg.prepare(m_hessian, m_g, control.metric);
           } else if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
@@ -198,9 +198,8 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
     bool have_trial_gradient = false, limiting_accuracy = false;
     double next = radius;
-    const bool newton_step = qp.reason == linalg::QpStop::Converged && !p.psd_hessian &&
-                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0 && m_model_exact) ||
-                              p.qp == TrQp::Exact);
+    const bool newton_step = qp.reason == linalg::QpStop::Converged && m_model_exact &&
+                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
     if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
       // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
       // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken and
