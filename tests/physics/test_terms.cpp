@@ -219,6 +219,39 @@ TEST(Terms, ObstacleContact) {
   EXPECT_GT(contact.value(x), 0.0);
 }
 
+TEST(Terms, ContactPsdHessianIsTheProjectionOfTheExactOne) {
+  // One convex obstacle per vertex: ∇φ is an eigenvector of ∇²φ with eigenvalue 0, so the closed form
+  // 2(k/d)(d − φ)∇φ∇φᵀ must equal the eigenvalue-clamped exact Hessian (for a sphere, a capsule and a rotated box).
+  std::vector<std::shared_ptr<const geometry::Shape>> shapes{std::make_shared<geometry::Sphere>(0.1),
+                                                             std::make_shared<geometry::Capsule>(0.05, 0.1),
+                                                             std::make_shared<geometry::Box>(Vec3(0.05, 0.08, 0.04))};
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-0.12, 0.12);
+  int in_contact = 0;
+  for (const auto& shape : shapes) {
+    geometry::Obstacle o;
+    o.shape = shape;
+    o.motion = std::make_shared<geometry::ConstantVelocityMotion>(
+        geometry::Pose{Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Vec3(1, 1, 0).normalized())), Vec3(0.01, 0.0, 0.0)},
+        Vec3::Zero(), Vec3::Zero());
+    ContactParams params;
+    params.thickness = 0.05;
+    const Index n = 200;
+    ObstacleContact contact(VecX::Constant(n, 1e-3), {o}, params);
+    for (Index i = 0; i < n; ++i) {
+      Eigen::Matrix<double, 3, 1> xe(u(rng), u(rng), u(rng)), g;
+      Eigen::Matrix3d H, Hpsd;
+      contact.element(i, xe, &g, &H);
+      if (H.isZero(0.0)) continue;
+      ++in_contact;
+      project_psd(H);
+      contact.element_psd_hessian(i, xe, Hpsd);
+      EXPECT_LE((Hpsd - H).norm(), 1e-9 * std::max(1.0, H.norm())) << shape->type() << " vertex " << i;
+    }
+  }
+  EXPECT_GT(in_contact, 100);
+}
+
 TEST(Terms, ProjectionLeavesNoVertexInside) {
   std::vector<geometry::Obstacle> obstacles(1);
   obstacles[0].shape = std::make_shared<geometry::Sphere>(0.5);

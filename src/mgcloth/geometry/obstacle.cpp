@@ -16,4 +16,19 @@ SdfSample Obstacle::sdf(const Vec3& p, const Pose& pose) const {
   return s;
 }
 
+hd::ObstacleData Obstacle::data(const Pose& pose) const {
+  if (!shape) throw_error("obstacle '{}': has no shape", name);
+  hd::ObstacleData o;
+  o.kind = shape->kind();
+  const auto p = shape->params();
+  const Mat3 R = pose.rotation.toRotationMatrix();
+  for (int i = 0; i < 3; ++i) {
+    o.param[i] = p[static_cast<size_t>(i)];
+    o.t[i] = pose.translation[i];
+    for (int j = 0; j < 3; ++j) o.R[3 * i + j] = R(i, j);
+  }
+  o.friction = friction;
+  return o;
+}
+
 }  // namespace mgcloth::geometry

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/geometry/rigid_motion.hpp>
+#include <mgcloth/geometry/sdf_kernels.hpp>
 #include <mgcloth/geometry/shapes.hpp>
 
 #include <memory>
@@ -21,6 +22,8 @@ struct Obstacle {
   SdfSample sdf(const Vec3& p, const Pose& pose) const;
   /// phi alone at a pose (no derivatives), the cheap test before sdf().
   double distance(const Vec3& p, const Pose& pose) const { return shape->distance(pose.to_local(p)); }
+  /// The obstacle at a pose as plain data for the shared kernels (hd::contact_psd, hd::project_out).
+  hd::ObstacleData data(const Pose& pose) const;
 };
 
 }  // namespace mgcloth::geometry

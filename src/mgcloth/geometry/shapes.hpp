@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
 
+#include <array>
 #include <memory>
 #include <string>
 
@@ -14,29 +15,34 @@ struct SdfSample {
   Mat3 hess = Mat3::Zero();
 };
 
+/// An obstacle shape; its signed distance is the shared kernel hd::sdf (physics/element_kernels.hpp) of its kind()
+/// and params(), so that the CUDA backend evaluates the same function.
 class Shape {
  public:
   virtual ~Shape() = default;
-  virtual SdfSample eval(const Vec3& p) const = 0;
+  SdfSample eval(const Vec3& p) const;
   /// phi alone: contact terms test every vertex each evaluation and need derivatives only for the few in contact.
-  virtual double distance(const Vec3& p) const { return eval(p).phi; }
+  double distance(const Vec3& p) const;
   virtual std::string type() const = 0;
+  /// hd::ShapeKind.
+  virtual int kind() const = 0;
+  /// The kind's parameters (sphere: radius; box: half extents; capsule: radius, half length).
+  virtual std::array<double, 3> params() const { return {0.0, 0.0, 0.0}; }
 };
 
 /// Half-space below the plane through the origin with normal +z (the obstacle is z < 0).
 class Plane final : public Shape {
  public:
-  SdfSample eval(const Vec3& p) const override;
-  double distance(const Vec3& p) const override;
   std::string type() const override { return "plane"; }
+  int kind() const override { return 0; }
 };
 
 class Sphere final : public Shape {
  public:
   explicit Sphere(double radius);
-  SdfSample eval(const Vec3& p) const override;
-  double distance(const Vec3& p) const override;
   std::string type() const override { return "sphere"; }
+  int kind() const override { return 1; }
+  std::array<double, 3> params() const override { return {m_radius, 0.0, 0.0}; }
   double radius() const { return m_radius; }
 
  private:
@@ -47,9 +53,9 @@ class Sphere final : public Shape {
 class Box final : public Shape {
  public:
   explicit Box(const Vec3& half_extents);
-  SdfSample eval(const Vec3& p) const override;
-  double distance(const Vec3& p) const override;
   std::string type() const override { return "box"; }
+  int kind() const override { return 2; }
+  std::array<double, 3> params() const override { return {m_half.x(), m_half.y(), m_half.z()}; }
 
  private:
   Vec3 m_half;
@@ -59,9 +65,9 @@ class Box final : public Shape {
 class Capsule final : public Shape {
  public:
   Capsule(double radius, double half_length);
-  SdfSample eval(const Vec3& p) const override;
-  double distance(const Vec3& p) const override;
   std::string type() const override { return "capsule"; }
+  int kind() const override { return 3; }
+  std::array<double, 3> params() const override { return {m_radius, m_half_length, 0.0}; }
 
  private:
   double m_radius, m_half_length;

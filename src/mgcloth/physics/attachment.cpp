@@ -1,5 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/physics/attachment.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 
 namespace mgcloth::physics {
 
@@ -20,11 +21,8 @@ void AttachmentTerm::set_targets(const std::vector<Vec3>& targets) {
 }
 
 double AttachmentTerm::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
-  const Vec3 d = xe - m_targets[e];
-  const double k = m_stiffness[e];
-  if (g) *g = k * d;
-  if (H) *H = k * Mat3::Identity();
-  return 0.5 * k * d.squaredNorm();
+  return hd::point_spring(xe.data(), m_targets[e].data(), m_stiffness[e], g ? g->data() : nullptr,
+                          H ? H->data() : nullptr);
 }
 
 }  // namespace mgcloth::physics

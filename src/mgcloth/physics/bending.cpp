@@ -23,18 +23,13 @@ double cot(const Vec2& a, const Vec2& b) {
 }
 }  // namespace
 
-double dihedral_angle(const Vec12& x) {
-  const Vec3 x0 = x.segment<3>(0), x1 = x.segment<3>(3), x2 = x.segment<3>(6), x3 = x.segment<3>(9);
-  const Vec3 e = x1 - x0;
-  const Vec3 n1 = e.cross(x2 - x0), n2 = (x3 - x0).cross(e);
-  return std::atan2(n1.cross(n2).dot(e.normalized()), n1.dot(n2));
-}
+double dihedral_angle(const Vec12& x) { return hd::dihedral_angle(x.data()); }
 
 Mat12 dihedral_angle_hessian(const Vec12& x) {
   using AD = Eigen::AutoDiffScalar<Vec12>;
-  Eigen::Matrix<AD, 12, 1> xa;
+  std::array<AD, 12> xa, ga;
   for (int i = 0; i < 12; ++i) xa[i] = AD(x[i], 12, i);
-  const Eigen::Matrix<AD, 12, 1> ga = dihedral_angle_gradient(xa);
+  hd::dihedral_angle_gradient(xa.data(), ga.data());
   Mat12 H;
   for (int i = 0; i < 12; ++i) H.row(i) = ga[i].derivatives().transpose();
   return 0.5 * (H + H.transpose());
@@ -47,34 +42,16 @@ HingeBending::HingeBending(const mesh::TriMesh& mesh, const mesh::Topology& topo
 }
 
 double HingeBending::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
-  const double theta = dihedral_angle(xe);
   const double c = m_weight[e];
-  if (!g && !H) return c * theta * theta;
-  // A hinge whose triangle collapsed in world space has no defined angle gradient; it contributes no force.
-  const Vec3 e01 = xe.segment<3>(3) - xe.segment<3>(0);
-  const double tiny = 1e-24 * e01.squaredNorm() * e01.squaredNorm();
-  if (e01.cross(xe.segment<3>(6) - xe.segment<3>(0)).squaredNorm() <= tiny ||
-      e01.cross(xe.segment<3>(9) - xe.segment<3>(0)).squaredNorm() <= tiny) {
-    if (g) g->setZero();
-    if (H) H->setZero();
-    return c * theta * theta;
-  }
-  const Vec12 dtheta = dihedral_angle_gradient<double>(xe);
-  if (g) *g = 2.0 * c * theta * dtheta;
-  if (H) *H = 2.0 * c * (dtheta * dtheta.transpose() + theta * dihedral_angle_hessian(xe));
-  return c * theta * theta;
+  if (!H) return hd::hinge_bending_psd(xe.data(), c, g ? g->data() : nullptr, nullptr);
+  const double energy = hd::hinge_bending_psd(xe.data(), c, g ? g->data() : nullptr, H->data());
+  // The exact Hessian adds 2cθ∇²θ to the Gauss-Newton part (none for a collapsed hinge, whose ∇θ is set to 0).
+  if (!hd::hinge_degenerate(xe.data())) *H += 2.0 * c * hd::dihedral_angle(xe.data()) * dihedral_angle_hessian(xe);
+  return energy;
 }
 
 void HingeBending::element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const {
-  const Vec3 e01 = xe.segment<3>(3) - xe.segment<3>(0);
-  const double tiny = 1e-24 * e01.squaredNorm() * e01.squaredNorm();
-  if (e01.cross(xe.segment<3>(6) - xe.segment<3>(0)).squaredNorm() <= tiny ||
-      e01.cross(xe.segment<3>(9) - xe.segment<3>(0)).squaredNorm() <= tiny) {
-    H.setZero();
-    return;
-  }
-  const Vec12 dtheta = dihedral_angle_gradient<double>(xe);
-  H = 2.0 * m_weight[e] * dtheta * dtheta.transpose();
+  hd::hinge_bending_psd(xe.data(), m_weight[e], nullptr, H.data());
 }
 
 QuadraticBending::QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topo, const Material& m) {
@@ -94,16 +71,7 @@ QuadraticBending::QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topolo
 }
 
 double QuadraticBending::element(Index e, const Local& xe, Local* g, LocalHessian* H) const {
-  const auto& K = m_k[e];
-  Vec3 s = Vec3::Zero();
-  for (int i = 0; i < 4; ++i) s += K[i] * xe.segment<3>(3 * i);
-  const double c = m_weight[e];
-  if (g)
-    for (int i = 0; i < 4; ++i) g->segment<3>(3 * i) = 2.0 * c * K[i] * s;
-  if (H)
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) H->block<3, 3>(3 * i, 3 * j) = 2.0 * c * K[i] * K[j] * Mat3::Identity();
-  return c * s.squaredNorm();
+  return hd::quadratic_bending(xe.data(), m_k[e].data(), m_weight[e], g ? g->data() : nullptr, H ? H->data() : nullptr);
 }
 
 }  // namespace mgcloth::physics

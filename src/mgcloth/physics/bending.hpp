@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/mesh/topology.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 #include <mgcloth/physics/element_term.hpp>
 #include <mgcloth/physics/material.hpp>
 
@@ -9,32 +10,8 @@ using Vec12 = Eigen::Matrix<double, 12, 1>;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 
 /// Signed dihedral angle of a hinge (x0, x1 the edge, x2 and x3 the opposite vertices, see mesh::Hinge):
-/// θ = atan2((N1 × N2)·ê, N1·N2), N1 = e × (x2 − x0), N2 = (x3 − x0) × e; zero when flat.
+/// θ = atan2((N1 × N2)·ê, N1·N2), N1 = e × (x2 − x0), N2 = (x3 − x0) × e; zero when flat (hd::dihedral_angle).
 double dihedral_angle(const Vec12& x);
-
-/// ∇θ (Bridson et al. 2003): the opposite vertices move along their triangle's normal over its height
-/// (∂θ/∂x2 = −|e| N1/|N1|²), the edge vertices take the opposite, split by where x2 and x3 project onto the edge.
-/// Templated so that forward-mode automatic differentiation of it gives the exact ∇²θ.
-template <class S>
-Eigen::Matrix<S, 12, 1> dihedral_angle_gradient(const Eigen::Matrix<S, 12, 1>& x) {
-  using V = Eigen::Matrix<S, 3, 1>;
-  const V x0 = x.template segment<3>(0), x1 = x.template segment<3>(3);
-  const V x2 = x.template segment<3>(6), x3 = x.template segment<3>(9);
-  const V e = x1 - x0;
-  const S el2 = e.dot(e);
-  using std::sqrt;
-  const S el = sqrt(el2);
-  const V n1 = e.cross(x2 - x0), n2 = (x3 - x0).cross(e);
-  const V g2 = -el * n1 / n1.dot(n1);
-  const V g3 = -el * n2 / n2.dot(n2);
-  const S t2 = (x2 - x0).dot(e) / el2, t3 = (x3 - x0).dot(e) / el2;
-  Eigen::Matrix<S, 12, 1> g;
-  g.template segment<3>(0) = -(S(1) - t2) * g2 - (S(1) - t3) * g3;
-  g.template segment<3>(3) = -t2 * g2 - t3 * g3;
-  g.template segment<3>(6) = g2;
-  g.template segment<3>(9) = g3;
-  return g;
-}
 
 /// Exact ∇²θ by forward-mode differentiation of dihedral_angle_gradient.
 Mat12 dihedral_angle_hessian(const Vec12& x);

@@ -1,5 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 
 namespace mgcloth::physics {
 
@@ -35,6 +36,12 @@ double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian
     if (H) *H += (k / d) * (2.0 * gap * s.grad * s.grad.transpose() - gap * gap * s.hess);
   }
   return energy;
+}
+
+void ObstacleContact::element_psd_hessian(Index i, const Local& xe, LocalHessian& H) const {
+  H.setZero();
+  for (size_t o = 0; o < obstacles().size(); ++o)
+    hd::contact_psd(obstacles()[o].data(poses()[o]), xe.data(), vertex_stiffness(i), params().thickness, nullptr, H.data());
 }
 
 Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& obstacles,

@@ -45,6 +45,8 @@ class ObstacleContact final : public ObstaclePenalty {
   ObstacleContact(VecX vertex_area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params);
   std::string name() const override { return "contact"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  /// Σ_o 2(k/d)(d − φ_o) ∇φ_o∇φ_oᵀ (hd::contact_psd): each obstacle's term projected to PSD in closed form.
+  void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
   double normal_force(Index i, double gap) const override { return vertex_stiffness(i) * gap * gap / params().thickness; }
 };
 

@@ -1,3 +1,4 @@
+#include <mgcloth/physics/element_kernels.hpp>
 #include <mgcloth/physics/inertia.hpp>
 
 namespace mgcloth::physics {
@@ -19,11 +20,8 @@ void InertiaTerm::set_prediction(const VecX& y, double h) {
 }
 
 double InertiaTerm::element(Index i, const Local& xe, Local* g, LocalHessian* H) const {
-  const double k = m_mass[i] * m_inv_h2;
-  const Vec3 d = xe - m_y.segment<3>(3 * i);
-  if (g) *g = k * d;
-  if (H) *H = k * Mat3::Identity();
-  return 0.5 * k * d.squaredNorm();
+  return hd::point_spring(xe.data(), m_y.data() + 3 * i, m_mass[i] * m_inv_h2, g ? g->data() : nullptr,
+                          H ? H->data() : nullptr);
 }
 
 GravityTerm::GravityTerm(VecX m, const Vec3& gravity) : m_mass(std::move(m)), m_gravity(gravity) {

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 #include <mgcloth/physics/membrane.hpp>
 
 namespace mgcloth::physics {
@@ -22,42 +23,9 @@ std::vector<TriangleRest> triangle_rests(const mesh::TriMesh& mesh) {
 
 double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double at, double mu, double lambda, Vec9* g, Mat9* H,
                      bool clamp_stress) {
-  Eigen::Matrix<double, 3, 2> ds;
-  ds.col(0) = xe.segment<3>(3) - xe.segment<3>(0);
-  ds.col(1) = xe.segment<3>(6) - xe.segment<3>(0);
-  const Eigen::Matrix<double, 3, 2> F = ds * dm_inv;
-  const Mat2 E = 0.5 * (F.transpose() * F - Mat2::Identity());
-  const double trE = E.trace();
-  const double energy = at * (mu * E.squaredNorm() + 0.5 * lambda * trE * trE);
-  if (!g && !H) return energy;
-  // F = Σ_a x_a b_aᵀ with b_1, b_2 the rows of Dm⁻¹ and b_0 = −b_1 − b_2.
-  std::array<Vec2, 3> b;
-  b[1] = dm_inv.row(0).transpose();
-  b[2] = dm_inv.row(1).transpose();
-  b[0] = -b[1] - b[2];
-  const Mat2 S = 2.0 * mu * E + lambda * trE * Mat2::Identity();  // second Piola-Kirchhoff stress
-  const Eigen::Matrix<double, 3, 2> P = F * S;                       // first Piola-Kirchhoff stress
-  if (g)
-    for (int a = 0; a < 3; ++a) g->segment<3>(3 * a) = at * P * b[a];
-  if (H) {
-    // ∂²W/∂x_a∂x_b = A t [(b_aᵀ S b_b) I + μ (F b_b)(F b_a)ᵀ + μ (b_a·b_b) F Fᵀ + λ (F b_a)(F b_b)ᵀ],
-    // from dP = dF S + F dS with dF = δ b_bᵀ.
-    Mat2 Sg = S;
-    if (clamp_stress) {
-      const Eigen::SelfAdjointEigenSolver<Mat2> eig(S);
-      Sg = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-    }
-    const Mat3 FFt = F * F.transpose();
-    std::array<Vec3, 3> Fb;
-    for (int a = 0; a < 3; ++a) Fb[a] = F * b[a];
-    for (int a = 0; a < 3; ++a)
-      for (int c = 0; c < 3; ++c) {
-        H->block<3, 3>(3 * a, 3 * c) =
-            at * (b[a].dot(Sg * b[c]) * Mat3::Identity() + mu * Fb[c] * Fb[a].transpose() +
-                  mu * b[a].dot(b[c]) * FFt + lambda * Fb[a] * Fb[c].transpose());
-      }
-  }
-  return energy;
+  const double dm[4] = {dm_inv(0, 0), dm_inv(0, 1), dm_inv(1, 0), dm_inv(1, 1)};
+  return hd::stvk_triangle(xe.data(), dm, at, mu, lambda, g ? g->data() : nullptr, H ? H->data() : nullptr,
+                           clamp_stress);
 }
 
 StVKMembrane::StVKMembrane(const mesh::TriMesh& mesh, const Material& m)
