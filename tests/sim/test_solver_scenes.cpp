@@ -13,13 +13,14 @@ using namespace mgcloth;
 namespace fs = std::filesystem;
 
 namespace {
-sim::Scene shipped(const std::string& name, int vertices, const std::string& solver, int substeps = 1) {
+sim::Scene shipped(const std::string& name, int vertices, const std::string& solver, int substeps = 1,
+                   const Json& params = Json::object()) {
   const std::string path = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/" + name + ".json";
   Json j = load_json(path);
   j["cloths"][0]["mesh"]["vertices"] = vertices;
   j["substeps"] = substeps;
   j["hierarchy"] = {{"min_coarse_vertices", 30}, {"max_coarse_vertices", 80}};
-  j["solver"] = {{"name", solver}, {"rel_grad", 1e-3}, {"max_iters", 500}};
+  j["solver"] = {{"name", solver}, {"rel_grad", 1e-3}, {"max_iters", 500}, {"params", params}};
   return sim::parse_scene(j, path, fs::path(path).parent_path());
 }
 }  // namespace
@@ -49,6 +50,38 @@ TEST(SolverScenes, FasAndEveryElasticSolverReachTheSameMinimizer) {
     st.max_iters = name == "gs-chebyshev" ? 20000 : 300;
     const auto rep = s.solver(0).minimize(p, x, st, nullptr);
     EXPECT_LT((x - xstar).norm(), 1e-6 * xstar.norm()) << name << ": " << rep.status << " after " << rep.iterations;
+  }
+}
+
+TEST(SolverScenes, TheFmgCudaPipelineReachesTheCpuMinimizerWithPinsAndContact) {
+  // The GPU pipeline run by its host backend (the same kernels, on the CPU) through the simulator: one frozen step
+  // of the hanging cloth (pins) and of the sphere drape in contact, against Newton + CHOLMOD and the CPU FMG.
+  for (const std::string scene : {"hanging", "drape_sphere"}) {
+    const int substeps = scene == "hanging" ? 10 : 4;
+    sim::Simulator ref(shipped(scene, 500, "newton-direct", substeps));
+    for (int k = 0; k < (scene == "hanging" ? 2 : 16); ++k) ref.step();
+    const VecX x_prev = ref.cloths()[0]->x(), v_prev = ref.cloths()[0]->v();
+    VecX xstar;
+    auto problem = ref.prepare_problem(0, xstar);
+    solvers::Stop stop;
+    stop.rel_grad = 1e-10;
+    stop.max_iters = 300;
+    ASSERT_TRUE(ref.solver(0).minimize(problem, xstar, stop, nullptr).converged) << scene;
+    if (scene == "drape_sphere") {
+      const auto values = problem.objective->term_values(xstar);
+      ASSERT_GT(values.back().second, 0.0) << "the drape's step must be in contact";
+    }
+    for (const std::string name : {"fmg", "fmg-cuda"}) {
+      const Json params = name == "fmg-cuda" ? Json{{"backend", "host"}} : Json::object();
+      sim::Simulator s(shipped(scene, 500, name, substeps, params));
+      s.set_state(ref.frame(), ref.step_count(), {x_prev}, {v_prev});
+      VecX x;
+      auto p = s.prepare_problem(0, x);
+      stop.max_iters = 500;
+      const auto rep = s.solver(0).minimize(p, x, stop, nullptr);
+      EXPECT_TRUE(rep.converged) << scene << " " << name << ": " << rep.status << " after " << rep.iterations;
+      EXPECT_LT((x - xstar).norm(), 1e-5 * xstar.norm()) << scene << " " << name;
+    }
   }
 }
 

@@ -19,14 +19,17 @@ class GalerkinProduct {
   const BlockMatrix3& coarse_pattern() const { return m_coarse; }
   /// Number of (fine block, weight) terms summed over all coarse blocks: the numeric pass's work.
   Index num_terms() const { return static_cast<Index>(m_terms.size()); }
-
- private:
-  BlockMatrix3 m_coarse;
-  std::vector<Index> m_offsets;  ///< per coarse block: its terms
+  /// The symbolic map: coarse block k = Σ_{t ∈ [term_offsets()[k], term_offsets()[k+1])} weight_t · A[fine_block_t].
   struct Term {
     Index fine_block;
     double weight;
   };
+  const std::vector<Index>& term_offsets() const { return m_offsets; }
+  const std::vector<Term>& terms() const { return m_terms; }
+
+ private:
+  BlockMatrix3 m_coarse;
+  std::vector<Index> m_offsets;  ///< per coarse block: its terms
   std::vector<Term> m_terms;
   Index m_fine_blocks = 0;
 };

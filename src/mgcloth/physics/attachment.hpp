@@ -11,6 +11,7 @@ class AttachmentTerm final : public ElementTerm<1> {
   std::string name() const override { return "attachment"; }
   void set_targets(const std::vector<Vec3>& targets);
   const std::vector<Vec3>& targets() const { return m_targets; }
+  const std::vector<double>& stiffness() const { return m_stiffness; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
 
  private:

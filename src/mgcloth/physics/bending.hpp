@@ -28,6 +28,8 @@ class HingeBending final : public ElementTerm<4> {
   /// Gauss-Newton: 2c ∇θ∇θᵀ, dropping the 2cθ∇²θ part, which is indefinite for any θ ≠ 0 and whose projection
   /// would need a 12x12 eigendecomposition per hinge. Exact at the flat rest state.
   void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
+  /// c of each hinge.
+  const std::vector<double>& weights() const { return m_weight; }
 
  private:
   std::vector<double> m_weight;
@@ -46,6 +48,9 @@ class QuadraticBending final : public ElementTerm<4> {
     Local g;
     element(e, xe, &g, &H);
   }
+
+  const std::vector<Eigen::Vector4d>& cotangent_weights() const { return m_k; }
+  const std::vector<double>& weights() const { return m_weight; }
 
  private:
   std::vector<Eigen::Vector4d> m_k;

@@ -11,6 +11,8 @@ class InertiaTerm final : public ElementTerm<1> {
   void set_prediction(const VecX& y, double h);
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
   const VecX& mass() const { return m_mass; }
+  const VecX& prediction() const { return m_y; }
+  double inv_h2() const { return m_inv_h2; }
 
  private:
   VecX m_mass, m_y;
@@ -23,6 +25,8 @@ class GravityTerm final : public ElementTerm<1> {
   GravityTerm(VecX lumped_mass, const Vec3& gravity);
   std::string name() const override { return "gravity"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  const VecX& mass() const { return m_mass; }
+  const Vec3& gravity() const { return m_gravity; }
 
  private:
   VecX m_mass;

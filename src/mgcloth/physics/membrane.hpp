@@ -35,6 +35,10 @@ class StVKMembrane final : public ElementTerm<3> {
   /// term (b_aᵀ S b_c) I: the material term is a Gauss-Newton form JᵀCJ and always PSD, and the geometric term is
   /// what goes indefinite under compression (buckling). Equal to the exact Hessian wherever S ⪰ 0.
   void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
+  const std::vector<TriangleRest>& rest() const { return m_rest; }
+  double thickness() const { return m_thickness; }
+  double mu() const { return m_mu; }
+  double lambda() const { return m_lambda; }
 
  private:
   std::vector<TriangleRest> m_rest;

@@ -1,5 +1,6 @@
 #include <mgcloth/solvers/factory.hpp>
 #include <mgcloth/solvers/fas.hpp>
+#include <mgcloth/solvers/fmg_cuda.hpp>
 #include <mgcloth/solvers/newton.hpp>
 #include <mgcloth/solvers/newton_variants.hpp>
 #include <mgcloth/solvers/nonlinear_fmg.hpp>
@@ -92,6 +93,45 @@ Json write_fmg(const FmgParams& p) {
   j["project_psd"] = p.project_psd;
   write_line_search(j, p.line_search_params);
   return j;
+}
+
+/// fmg-cuda: the settings the device pipeline implements, and which backend runs it.
+struct FmgCudaConfig {
+  cuda::FmgSettings s;
+  std::string backend = "cuda";
+};
+FmgCudaConfig read_fmg_cuda(JsonReader& r) {
+  FmgCudaConfig c;
+  cuda::FmgSettings& p = c.s;
+  p.pre_smooth = r.integer("pre_smooth", p.pre_smooth, 0, 100);
+  p.post_smooth = r.integer("post_smooth", p.post_smooth, 0, 100);
+  p.chebyshev = r.boolean("chebyshev_smoothing", p.chebyshev);
+  const std::vector<std::string> updates{"direction", "cycle", "step"};
+  const std::string u = r.choice("matrix_update", updates[static_cast<size_t>(p.matrix_update)], updates);
+  p.matrix_update = static_cast<int>(std::find(updates.begin(), updates.end(), u) - updates.begin());
+  p.adaptive_threshold = r.number("adaptive_threshold", p.adaptive_threshold, 0.0, 100.0);
+  p.momentum = r.boolean("momentum", p.momentum);
+  p.armijo = r.number("armijo", p.armijo, 1e-12, 0.5);
+  p.shrink = r.number("backtrack", p.shrink, 0.01, 0.99);
+  p.max_line_search_steps = r.integer("max_line_search_steps", p.max_line_search_steps, 1, 200);
+  p.coarse_solve = r.choice("coarse_solve", p.coarse_solve, {"auto", "device", "host"});
+  c.backend = r.choice("backend", c.backend, {"cuda", "host"});
+  return c;
+}
+Json write_fmg_cuda(const FmgCudaConfig& c) {
+  const cuda::FmgSettings& p = c.s;
+  const std::vector<std::string> updates{"direction", "cycle", "step"};
+  return {{"pre_smooth", p.pre_smooth},
+          {"post_smooth", p.post_smooth},
+          {"chebyshev_smoothing", p.chebyshev},
+          {"matrix_update", updates[static_cast<size_t>(p.matrix_update)]},
+          {"adaptive_threshold", p.adaptive_threshold},
+          {"momentum", p.momentum},
+          {"armijo", p.armijo},
+          {"backtrack", p.shrink},
+          {"max_line_search_steps", p.max_line_search_steps},
+          {"coarse_solve", p.coarse_solve},
+          {"backend", c.backend}};
 }
 
 FasParams read_fas(JsonReader& r, FasParams p) {
@@ -292,11 +332,12 @@ ExactNewtonParams exact_newton_preset(const std::string& name) {
   return p;
 }
 
-enum class Kind { Newton, Fmg, Fas, TrustRegion, ExactNewton, Rmtr };
+enum class Kind { Newton, Fmg, FmgCuda, Fas, TrustRegion, ExactNewton, Rmtr };
 Kind kind_of(const std::string& name) {
   if (name == "newton" || name == "newton-direct" || name == "newton-amg" || name == "newton-mg" || name == "pd-direct")
     return Kind::Newton;
   if (name == "fas") return Kind::Fas;
+  if (name == "fmg-cuda") return Kind::FmgCuda;
   if (name == "tr" || name == "tr-dogleg" || name == "tr-stcg") return Kind::TrustRegion;
   if (name == "rmtr") return Kind::Rmtr;
   if (name == "newton-ls" || name == "newton-damped" || name == "linearized") return Kind::ExactNewton;
@@ -306,7 +347,7 @@ Kind kind_of(const std::string& name) {
 }  // namespace
 
 std::vector<std::string> solver_names() {
-  return {"fmg", "newton-direct", "newton-amg", "newton-mg", "fas", "gs-chebyshev", "pd-direct", "pd-gs-chebyshev",
+  return {"fmg", "fmg-cuda", "newton-direct", "newton-amg", "newton-mg", "fas", "gs-chebyshev", "pd-direct", "pd-gs-chebyshev",
           "pd-fmg", "newton", "tr", "tr-dogleg", "tr-stcg", "rmtr", "newton-ls", "newton-damped", "linearized"};
 }
 
@@ -328,6 +369,11 @@ std::unique_ptr<NonlinearSolver> make_solver(const SolverConfig& c, const std::s
   switch (kind_of(c.name)) {
     case Kind::Newton: s = std::make_unique<Newton>(read_newton(r, newton_preset(c.name)), c.name); break;
     case Kind::Fmg: s = std::make_unique<NonlinearFMG>(read_fmg(r, fmg_preset(c.name)), c.name); break;
+    case Kind::FmgCuda: {
+      const FmgCudaConfig fc = read_fmg_cuda(r);
+      r.finish();
+      return std::make_unique<FmgCuda>(fc.backend == "host" ? cuda::Backend::Host : cuda::Backend::Cuda, fc.s, c.name);
+    }
     case Kind::Fas: s = std::make_unique<Fas>(read_fas(r, FasParams{})); break;
     case Kind::TrustRegion:
       s = std::make_unique<TrustRegion>(read_trust_region(r, trust_region_preset(c.name)), c.name);
@@ -348,6 +394,7 @@ Json resolved_params(const SolverConfig& c, const std::string& file, const std::
   switch (kind_of(c.name)) {
     case Kind::Newton: j = write_newton(read_newton(r, newton_preset(c.name))); break;
     case Kind::Fmg: j = write_fmg(read_fmg(r, fmg_preset(c.name))); break;
+    case Kind::FmgCuda: j = write_fmg_cuda(read_fmg_cuda(r)); break;
     case Kind::Fas: j = write_fas(read_fas(r, FasParams{})); break;
     case Kind::TrustRegion: j = write_trust_region(read_trust_region(r, trust_region_preset(c.name))); break;
     case Kind::ExactNewton: j = write_exact_newton(read_exact_newton(r, exact_newton_preset(c.name))); break;

@@ -1,0 +1,146 @@
+#pragma once
+// The CUDA execution backend of the device pipeline (pipeline.hpp): buffers in device memory, for_each as a kernel
+// launch of the pipeline's __host__ __device__ lambda, sum as a deterministic two-pass block reduction (fixed grid,
+// fixed tree order), and the coarsest level's dense Cholesky by cuSOLVER (loaded at run time, so that the binary
+// needs nothing of CUDA but the driver: the runtime is linked statically).
+#include <cuda_runtime.h>
+
+#include <mgcloth/core/types.hpp>
+
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mgcloth::cuda {
+
+/// Throws mgcloth::Error naming `what` when e is not cudaSuccess.
+void check_cuda(cudaError_t e, const char* what);
+
+template <class T>
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept : m_p(std::exchange(o.m_p, nullptr)), m_n(std::exchange(o.m_n, 0)) {}
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
+    std::swap(m_p, o.m_p);
+    std::swap(m_n, o.m_n);
+    return *this;
+  }
+  ~DeviceBuffer() {
+    if (m_p) cudaFree(m_p);
+  }
+  /// n zeroed elements.
+  void resize(size_t n) {
+    allocate(n);
+    if (n) check_cuda(cudaMemset(m_p, 0, n * sizeof(T)), "cudaMemset");
+  }
+  size_t size() const { return m_n; }
+  T* data() { return m_p; }
+  const T* data() const { return m_p; }
+  void upload(const std::vector<T>& src) { upload(src.data(), src.size()); }
+  void upload(const T* src, size_t n) {
+    allocate(n);
+    if (n) check_cuda(cudaMemcpy(m_p, src, n * sizeof(T), cudaMemcpyHostToDevice), "cudaMemcpy to the device");
+  }
+  void download(std::vector<T>& dst) const {
+    dst.resize(m_n);
+    download(dst.data(), m_n);
+  }
+  void download(T* dst, size_t n) const {
+    if (n) check_cuda(cudaMemcpy(dst, m_p, n * sizeof(T), cudaMemcpyDeviceToHost), "cudaMemcpy to the host");
+  }
+
+ private:
+  void allocate(size_t n) {
+    if (n == m_n) return;
+    if (m_p) cudaFree(m_p);
+    m_p = nullptr;
+    m_n = n;
+    if (n) check_cuda(cudaMalloc(&m_p, n * sizeof(T)), "cudaMalloc");
+  }
+  T* m_p = nullptr;
+  size_t m_n = 0;
+};
+
+constexpr int kThreads = 256;
+constexpr int kMaxReduceBlocks = 1024;
+
+template <class F>
+__global__ void for_each_kernel(Index n, F f) {
+  const Index i = static_cast<Index>(blockIdx.x) * kThreads + static_cast<Index>(threadIdx.x);
+  if (i < n) f(i);
+}
+
+__device__ inline void block_reduce(double* s) {
+  for (int w = kThreads / 2; w > 0; w /= 2) {
+    if (static_cast<int>(threadIdx.x) < w) s[threadIdx.x] += s[threadIdx.x + w];
+    __syncthreads();
+  }
+}
+
+template <class F>
+__global__ void sum_kernel(Index n, F f, double* partial) {
+  __shared__ double s[kThreads];
+  double acc = 0.0;
+  const Index stride = static_cast<Index>(gridDim.x) * kThreads;
+  for (Index i = static_cast<Index>(blockIdx.x) * kThreads + static_cast<Index>(threadIdx.x); i < n; i += stride) acc += f(i);
+  s[threadIdx.x] = acc;
+  __syncthreads();
+  block_reduce(s);
+  if (threadIdx.x == 0) partial[blockIdx.x] = s[0];
+}
+
+__global__ void final_sum_kernel(const double* partial, int m, double* out);
+
+/// Scratch of the reductions (device partial sums, pinned result), allocated once per process.
+double* reduce_partials();
+double* reduce_result_device();
+double* reduce_result_host();
+
+struct CudaBackend {
+  template <class T>
+  using Buffer = DeviceBuffer<T>;
+  static const char* name() { return "cuda"; }
+  static std::string device_name();
+
+  template <class F>
+  static void for_each(Index n, F f) {
+    if (n <= 0) return;
+    for_each_kernel<<<(n + kThreads - 1) / kThreads, kThreads>>>(n, f);
+    check_cuda(cudaGetLastError(), "kernel launch");
+  }
+  template <class F>
+  static double sum(Index n, F f) {
+    if (n <= 0) return 0.0;
+    const int blocks = static_cast<int>(std::min<Index>(kMaxReduceBlocks, (n + kThreads - 1) / kThreads));
+    sum_kernel<<<blocks, kThreads>>>(n, f, reduce_partials());
+    check_cuda(cudaGetLastError(), "reduction launch");
+    final_sum_kernel<<<1, kThreads>>>(reduce_partials(), blocks, reduce_result_device());
+    check_cuda(cudaMemcpy(reduce_result_host(), reduce_result_device(), sizeof(double), cudaMemcpyDeviceToHost),
+               "reduction result");
+    return *reduce_result_host();
+  }
+  static void synchronize() { check_cuda(cudaDeviceSynchronize(), "cudaDeviceSynchronize"); }
+
+  /// Dense Cholesky of an N x N column-major SPD matrix in device memory: cuSOLVER potrf/potrs where the library
+  /// can be loaded, else the factor is computed on the host (and each solve goes through it).
+  class DenseCholesky {
+   public:
+    DenseCholesky();
+    ~DenseCholesky();
+    DenseCholesky(const DenseCholesky&) = delete;
+    DenseCholesky& operator=(const DenseCholesky&) = delete;
+    bool factorize(const double* A, Index N);
+    void solve(const double* b, double* x);
+    bool on_device() const;
+
+   private:
+    struct Impl;
+    Impl* m_impl;
+  };
+};
+
+}  // namespace mgcloth::cuda

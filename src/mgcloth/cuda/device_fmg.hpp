@@ -1,0 +1,76 @@
+#pragma once
+#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/physics/objective.hpp>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace mgcloth::cuda {
+
+/// Settings of the device FMG: the subset of solvers::FmgParams that the GPU pipeline implements (the paper's
+/// configuration: one linear V-cycle of the Galerkin hierarchy per search direction, §4.2, with the CPU solver's
+/// model step, momentum and backtracking line search).
+struct FmgSettings {
+  int pre_smooth = 3, post_smooth = 3;
+  bool chebyshev = true;        ///< Chebyshev-accelerated symmetric Gauss-Seidel smoothing
+  int matrix_update = 1;        ///< 0 every direction, 1 every cycle, 2 once per step (solvers::MatrixUpdate order)
+  double refresh_below = 0.25;  ///< a step below this fraction of the model step refreshes the matrix
+  double armijo = 1e-4, shrink = 0.5;
+  int max_line_search_steps = 30;
+  bool momentum = true;
+  double adaptive_threshold = 0.0;  ///< adaptive smoothing inside the V-cycles (§4.3), 0 = off
+  /// The coarsest level's solve: "device" (dense Cholesky on the device: cuSOLVER on the CUDA backend) or "host"
+  /// (CHOLMOD on the CPU, the coarse vectors copied each way); "auto" is "device".
+  std::string coarse_solve = "auto";
+};
+
+struct Limits {
+  double rel_grad = 1e-6, abs_grad = 0.0;
+  int max_iters = 100;
+  double max_seconds = 1e300;
+  bool interruptible = false;
+};
+
+struct Row {
+  int iteration = 0;
+  double energy = 0.0, grad_norm = 0.0, wall_ms = 0.0, step = 0.0;
+};
+
+struct Outcome {
+  int iterations = 0;
+  std::string status;
+  double energy = 0.0, grad_norm = 0.0, initial_grad_norm = 0.0, target = 0.0, wall_ms = 0.0;
+  std::vector<std::pair<std::string, double>> counters;
+  std::vector<Row> trace;
+};
+
+/// The nonlinear FMG of Wang 2018 §4.2 with every step of a solve on one device: element kernels, BSR assembly,
+/// Galerkin products, multi-color Gauss-Seidel, V-cycles, line search. Built for one objective and hierarchy and
+/// kept across time steps (only the step's prediction, pin targets and obstacle poses are uploaded per minimize()).
+class DeviceFmg {
+ public:
+  virtual ~DeviceFmg() = default;
+  /// Minimizes `objective` from x (updated). `project`: make iterates feasible against the contact term's
+  /// obstacles (the simulator's Problem::project). Throws InputError for an objective the pipeline cannot take and
+  /// SolveError when the solve diverges, with the CPU solver's messages.
+  virtual Outcome minimize(const physics::Objective& objective,
+                           const std::vector<const hierarchy::TransferTable*>& prolongations, bool project, VecX& x,
+                           const Limits& limits, bool trace) = 0;
+  /// "host" or the CUDA device's name.
+  virtual std::string device() const = 0;
+};
+
+enum class Backend { Cuda, Host };
+
+/// Whether this build compiled the CUDA backend (MGCLOTH_CUDA).
+bool cuda_compiled();
+/// A CUDA device is present and usable; otherwise `why` says why not (no CUDA in this build, no device, driver).
+bool cuda_available(std::string* why = nullptr);
+
+/// Backend::Cuda throws Error with the reason when cuda_available() is false. Backend::Host runs the same pipeline
+/// on the CPU (for tests and for checking the device code path without a GPU).
+std::unique_ptr<DeviceFmg> make_device_fmg(Backend backend, const FmgSettings& settings);
+
+}  // namespace mgcloth::cuda

@@ -1,0 +1,64 @@
+#pragma once
+// The execution backend of the device pipeline on the CPU: the same kernels (MGCLOTH_HOST_DEVICE lambdas over an
+// index range) run as OpenMP loops over std::vector buffers. It makes the whole GPU pipeline testable on machines
+// without a GPU, against the CPU solvers (tests/cuda/); the CUDA backend (cuda_backend.cuh) launches the same
+// lambdas as kernels.
+#include <mgcloth/core/parallel.hpp>
+
+#include <Eigen/Cholesky>
+#include <string>
+#include <vector>
+
+namespace mgcloth::cuda {
+
+template <class T>
+class HostBuffer {
+ public:
+  void resize(size_t n) { m_v.assign(n, T{}); }
+  size_t size() const { return m_v.size(); }
+  T* data() { return m_v.data(); }
+  const T* data() const { return m_v.data(); }
+  void upload(const std::vector<T>& src) { m_v = src; }
+  void upload(const T* src, size_t n) { m_v.assign(src, src + n); }
+  void download(std::vector<T>& dst) const { dst = m_v; }
+  void download(T* dst, size_t n) const { std::copy(m_v.begin(), m_v.begin() + static_cast<std::ptrdiff_t>(n), dst); }
+
+ private:
+  std::vector<T> m_v;
+};
+
+struct HostBackend {
+  template <class T>
+  using Buffer = HostBuffer<T>;
+  static const char* name() { return "host"; }
+  /// f(i) for i in [0, n); iterations must be independent (they run in parallel).
+  template <class F>
+  static void for_each(Index n, F f) {
+    parallel_for(n, f);
+  }
+  /// Σ f(i), deterministic (fixed chunking).
+  template <class F>
+  static double sum(Index n, F f) {
+    return parallel_sum(n, f);
+  }
+  static void synchronize() {}
+  static std::string device_name() { return "host (CPU emulation of the device pipeline)"; }
+
+  /// Dense Cholesky of an N x N column-major SPD matrix in place (the CUDA backend's cuSOLVER potrf/potrs).
+  class DenseCholesky {
+   public:
+    bool factorize(const double* A, Index N) {
+      m_llt.compute(Eigen::Map<const Eigen::MatrixXd>(A, N, N));
+      return m_llt.info() == Eigen::Success;
+    }
+    void solve(const double* b, double* x) const {
+      const Index N = m_llt.rows();
+      Eigen::Map<Eigen::VectorXd>(x, N) = m_llt.solve(Eigen::Map<const Eigen::VectorXd>(b, N));
+    }
+
+   private:
+    Eigen::LLT<Eigen::MatrixXd> m_llt;
+  };
+};
+
+}  // namespace mgcloth::cuda

@@ -1,0 +1,228 @@
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/cuda/layout.hpp>
+#include <mgcloth/linalg/coloring.hpp>
+#include <mgcloth/linalg/galerkin.hpp>
+#include <mgcloth/physics/attachment.hpp>
+#include <mgcloth/physics/bending.hpp>
+#include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/inertia.hpp>
+#include <mgcloth/physics/membrane.hpp>
+
+namespace mgcloth::cuda {
+namespace {
+
+/// Rows grouped by color: perm (device row → row) and the color ranges.
+void order_by_color(const linalg::BlockMatrix3& pattern, std::vector<Index>& perm, std::vector<Index>& color_offsets) {
+  const auto colors = linalg::color_rows(pattern);
+  perm.clear();
+  color_offsets.assign(1, 0);
+  for (const auto& c : colors) {
+    perm.insert(perm.end(), c.begin(), c.end());
+    color_offsets.push_back(static_cast<Index>(perm.size()));
+  }
+  if (static_cast<Index>(perm.size()) != pattern.rows()) throw_error("device layout: the coloring misses rows");
+}
+
+std::vector<Index> inverse(const std::vector<Index>& perm) {
+  std::vector<Index> inv(perm.size());
+  for (size_t r = 0; r < perm.size(); ++r) inv[static_cast<size_t>(perm[r])] = static_cast<Index>(r);
+  return inv;
+}
+
+linalg::BlockMatrix3 renumbered(const linalg::BlockMatrix3& A, const std::vector<Index>& inv) {
+  std::vector<std::pair<Index, Index>> pairs;
+  pairs.reserve(static_cast<size_t>(A.num_blocks()));
+  for (Index r = 0; r < A.rows(); ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k)
+      pairs.emplace_back(inv[static_cast<size_t>(r)], inv[static_cast<size_t>(A.col_indices()[k])]);
+  return linalg::BlockMatrix3(A.rows(), std::move(pairs));
+}
+
+template <int K, class Term>
+ElementGroup group_elements(const Term& term, const std::vector<Index>& inv, const linalg::BlockMatrix3& pattern) {
+  ElementGroup g;
+  g.arity = K;
+  const Index ne = term.num_elements();
+  std::vector<Index> flat(static_cast<size_t>(ne) * K);
+  for (Index e = 0; e < ne; ++e)
+    for (int a = 0; a < K; ++a) flat[static_cast<size_t>(e) * K + a] = inv[static_cast<size_t>(term.elements()[e][a])];
+  // One element per chunk: each color is then a set of elements with pairwise disjoint vertices.
+  const physics::ElementColors colors = physics::color_elements(flat, K, pattern.rows(), 1);
+  g.color_offsets.assign(1, 0);
+  for (Index c = 0; c < colors.num_colors(); ++c) {
+    for (Index k = colors.color_offsets[c]; k < colors.color_offsets[c + 1]; ++k)
+      for (Index i = colors.chunk_offsets[k]; i < colors.chunk_offsets[k + 1]; ++i) {
+        const Index e = colors.elements[i];
+        g.source.push_back(e);
+        for (int a = 0; a < K; ++a) g.vertices.push_back(flat[static_cast<size_t>(e) * K + a]);
+      }
+    g.color_offsets.push_back(static_cast<Index>(g.source.size()));
+  }
+  g.slots.resize(g.vertices.size() * K);
+  for (size_t e = 0; e < g.source.size(); ++e)
+    for (int a = 0; a < K; ++a)
+      for (int b = 0; b < K; ++b)
+        g.slots[(e * K + a) * K + b] = pattern.find(g.vertices[e * K + a], g.vertices[e * K + b]);
+  return g;
+}
+
+}  // namespace
+
+Layout build_layout(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations) {
+  Layout L;
+  L.levels.resize(prolongations.size() + 1);
+  linalg::BlockMatrix3 original = objective.hessian_pattern();  // this level's pattern in the problem's numbering
+  {
+    LevelLayout& top = L.levels[0];
+    top.n = original.rows();
+    order_by_color(original, top.perm, top.color_offsets);
+    top.pattern = renumbered(original, inverse(top.perm));
+  }
+  for (size_t l = 0; l < prolongations.size(); ++l) {
+    const hierarchy::TransferTable& P = *prolongations[l];
+    LevelLayout& fine = L.levels[l];
+    LevelLayout& coarse = L.levels[l + 1];
+    if (P.num_fine != fine.n)
+      throw_error("device layout: level {} has {} vertices but its prolongation expects {}", l, fine.n, P.num_fine);
+    // The coarse pattern (in the problem's numbering) decides the coarse coloring, hence the coarse device numbering.
+    const linalg::GalerkinProduct symbolic(original, P.num_coarse, P.offsets, P.indices, P.weights);
+    original = symbolic.coarse_pattern();
+    coarse.n = P.num_coarse;
+    order_by_color(original, coarse.perm, coarse.color_offsets);
+    const std::vector<Index> inv_c = inverse(coarse.perm);
+    hierarchy::TransferTable Pd;
+    Pd.num_fine = P.num_fine;
+    Pd.num_coarse = P.num_coarse;
+    Pd.offsets.assign(1, 0);
+    for (Index r = 0; r < fine.n; ++r) {
+      const Index i = fine.perm[static_cast<size_t>(r)];
+      for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k) {
+        Pd.indices.push_back(inv_c[static_cast<size_t>(P.indices[k])]);
+        Pd.weights.push_back(P.weights[k]);
+      }
+      Pd.offsets.push_back(static_cast<Index>(Pd.indices.size()));
+    }
+    Pd.build_transpose();
+    fine.P = {Pd.offsets, Pd.indices, Pd.weights};
+    fine.Pt = {Pd.t_offsets, Pd.t_indices, Pd.t_weights};
+    const linalg::GalerkinProduct rap(fine.pattern, Pd.num_coarse, Pd.offsets, Pd.indices, Pd.weights);
+    coarse.pattern = rap.coarse_pattern();
+    fine.rap_offsets = rap.term_offsets();
+    for (const auto& t : rap.terms()) {
+      fine.rap_blocks.push_back(t.fine_block);
+      fine.rap_weights.push_back(t.weight);
+    }
+  }
+
+  ObjectiveLayout& O = L.objective;
+  const LevelLayout& top = L.levels[0];
+  O.n = top.n;
+  const std::vector<Index> inv = inverse(top.perm);
+  for (Index r = 0; r < O.n; ++r) O.diag_slots.push_back(top.pattern.diagonal(r));
+  const auto once = [](bool& seen, const std::string& name) {
+    if (seen) throw InputError(fmt::format("fmg-cuda: the objective has two \"{}\" terms; the device pipeline takes one", name));
+    seen = true;
+  };
+  bool inertia = false, gravity = false, membrane = false, bending = false, pins = false, contact = false;
+  for (const auto& term : objective.terms()) {
+    const physics::Term* t = term.get();
+    if (const auto* in = dynamic_cast<const physics::InertiaTerm*>(t)) {
+      once(inertia, t->name());
+      O.mass.resize(static_cast<size_t>(O.n));
+      for (Index r = 0; r < O.n; ++r) O.mass[static_cast<size_t>(r)] = in->mass()[top.perm[static_cast<size_t>(r)]];
+    } else if (const auto* gr = dynamic_cast<const physics::GravityTerm*>(t)) {
+      once(gravity, t->name());
+      for (int k = 0; k < 3; ++k) O.gravity[k] = gr->gravity()[k];
+      O.has_gravity = true;
+      if (!inertia) throw InputError("fmg-cuda: the gravity term must follow the inertia term (they share the masses)");
+      for (Index r = 0; r < O.n; ++r)
+        if (gr->mass()[top.perm[static_cast<size_t>(r)]] != O.mass[static_cast<size_t>(r)])
+          throw InputError("fmg-cuda: gravity and inertia use different masses, which the device pipeline does not support");
+    } else if (const auto* m = dynamic_cast<const physics::StVKMembrane*>(t)) {
+      once(membrane, t->name());
+      O.tris = group_elements<3>(*m, inv, top.pattern);
+      O.mu = m->mu();
+      O.lambda = m->lambda();
+      for (Index e : O.tris.source) {
+        const auto& rest = m->rest()[static_cast<size_t>(e)];
+        O.tri_dm_inv.insert(O.tri_dm_inv.end(), {rest.dm_inv(0, 0), rest.dm_inv(0, 1), rest.dm_inv(1, 0), rest.dm_inv(1, 1)});
+        O.tri_at.push_back(rest.area * m->thickness());
+      }
+    } else if (const auto* hb = dynamic_cast<const physics::HingeBending*>(t)) {
+      once(bending, "bending");
+      O.hinges = group_elements<4>(*hb, inv, top.pattern);
+      for (Index e : O.hinges.source) O.hinge_c.push_back(hb->weights()[static_cast<size_t>(e)]);
+    } else if (const auto* qb = dynamic_cast<const physics::QuadraticBending*>(t)) {
+      once(bending, "bending");
+      O.quadratic_bending = true;
+      O.hinges = group_elements<4>(*qb, inv, top.pattern);
+      for (Index e : O.hinges.source) {
+        O.hinge_c.push_back(qb->weights()[static_cast<size_t>(e)]);
+        const auto& K = qb->cotangent_weights()[static_cast<size_t>(e)];
+        O.hinge_k.insert(O.hinge_k.end(), {K[0], K[1], K[2], K[3]});
+      }
+    } else if (const auto* at = dynamic_cast<const physics::AttachmentTerm*>(t)) {
+      once(pins, t->name());
+      std::vector<std::vector<Index>> by_vertex(static_cast<size_t>(O.n));
+      for (Index p = 0; p < at->num_elements(); ++p)
+        by_vertex[static_cast<size_t>(inv[static_cast<size_t>(at->elements()[p][0])])].push_back(p);
+      O.pin_offsets.assign(1, 0);
+      for (const auto& list : by_vertex) {
+        for (Index p : list) {
+          O.pin_source.push_back(p);
+          O.pin_k.push_back(at->stiffness()[static_cast<size_t>(p)]);
+        }
+        O.pin_offsets.push_back(static_cast<Index>(O.pin_source.size()));
+      }
+    } else if (const auto* c = dynamic_cast<const physics::ObstacleContact*>(t)) {
+      once(contact, t->name());
+      O.thickness = c->params().thickness;
+      O.contact_k.resize(static_cast<size_t>(O.n));
+      for (Index r = 0; r < O.n; ++r) O.contact_k[static_cast<size_t>(r)] = c->vertex_stiffness(top.perm[static_cast<size_t>(r)]);
+    } else {
+      throw InputError(fmt::format(
+          "fmg-cuda: the objective's term \"{}\" has no device implementation (the GPU pipeline takes inertia, gravity, "
+          "the StVK membrane, hinge or quadratic bending, pins and the cubic obstacle penalty; use \"fmg\")",
+          t->name()));
+    }
+  }
+  if (!inertia) throw InputError("fmg-cuda: the objective has no inertia term");
+  if (O.pin_offsets.empty()) O.pin_offsets.assign(static_cast<size_t>(O.n) + 1, 0);
+  return L;
+}
+
+StepData step_data(const physics::Objective& objective, const Layout& layout) {
+  StepData s;
+  const ObjectiveLayout& O = layout.objective;
+  for (const auto& term : objective.terms()) {
+    const physics::Term* t = term.get();
+    if (const auto* in = dynamic_cast<const physics::InertiaTerm*>(t)) {
+      to_device_order(layout, in->prediction(), s.y);
+      s.inv_h2 = in->inv_h2();
+    } else if (const auto* at = dynamic_cast<const physics::AttachmentTerm*>(t)) {
+      for (Index p : O.pin_source) {
+        const Vec3& target = at->targets()[static_cast<size_t>(p)];
+        s.targets.insert(s.targets.end(), {target.x(), target.y(), target.z()});
+      }
+    } else if (const auto* c = dynamic_cast<const physics::ObstacleContact*>(t)) {
+      for (size_t o = 0; o < c->obstacles().size(); ++o) s.obstacles.push_back(c->obstacles()[o].data(c->poses()[o]));
+    }
+  }
+  return s;
+}
+
+void to_device_order(const Layout& layout, const VecX& x, std::vector<double>& out) {
+  const auto& perm = layout.levels[0].perm;
+  out.resize(3 * perm.size());
+  for (size_t r = 0; r < perm.size(); ++r)
+    for (int k = 0; k < 3; ++k) out[3 * r + k] = x[3 * perm[r] + k];
+}
+
+void from_device_order(const Layout& layout, const std::vector<double>& in, VecX& x) {
+  const auto& perm = layout.levels[0].perm;
+  x.resize(static_cast<Index>(3 * perm.size()));
+  for (size_t r = 0; r < perm.size(); ++r)
+    for (int k = 0; k < 3; ++k) x[3 * perm[r] + k] = in[3 * r + k];
+}
+
+}  // namespace mgcloth::cuda

@@ -1,0 +1,30 @@
+#pragma once
+#include <mgcloth/cuda/device_fmg.hpp>
+#include <mgcloth/solvers/nonlinear_solver.hpp>
+
+#include <memory>
+
+namespace mgcloth::solvers {
+
+/// "fmg-cuda": the nonlinear FMG of Wang 2018 (§4.2, the paper's configuration: one linear V-cycle of the Galerkin
+/// hierarchy per search direction, Chebyshev-accelerated multi-color Gauss-Seidel, line search) with the whole
+/// solve on the GPU (cuda::DeviceFmg): element kernels, BSR assembly, Galerkin products, smoothing, coarse
+/// Cholesky, line search, contact projection. One iteration is one FMG cycle, as for "fmg". backend "host" runs
+/// the same pipeline on the CPU (the kernels' check without a GPU; not a fast solver).
+class FmgCuda final : public NonlinearSolver {
+ public:
+  /// Throws Error when backend is Cuda and no GPU is usable (the message says why: no CUDA in this build, no
+  /// device, an old driver).
+  FmgCuda(cuda::Backend backend, cuda::FmgSettings settings, std::string name = "fmg-cuda");
+  std::string name() const override { return m_name; }
+  bool needs_hierarchy() const override { return true; }
+  /// Counters: those of "fmg" (directions, energy evaluations, matrix updates, time per phase) plus setup_ms.
+  SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  std::string device() const { return m_impl->device(); }
+
+ private:
+  std::string m_name;
+  std::unique_ptr<cuda::DeviceFmg> m_impl;
+};
+
+}  // namespace mgcloth::solvers

@@ -1,0 +1,291 @@
+// The device pipeline of fmg-cuda, run by its host backend: the same kernels as on the GPU, compared with the CPU
+// objective and multigrid on random states. The GPU itself is exercised where one is present (else skipped).
+#include "solvers/hanging_fixture.hpp"
+
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/cuda/host_backend.hpp>
+#include <mgcloth/cuda/pipeline.hpp>
+#include <mgcloth/hierarchy/triangle_hierarchy.hpp>
+#include <mgcloth/linalg/galerkin.hpp>
+#include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/seam.hpp>
+#include <mgcloth/solvers/linear_multigrid.hpp>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+using namespace mgcloth;
+using HostPipeline = cuda::Pipeline<cuda::HostBackend>;
+
+namespace {
+
+/// The hanging cloth with a sphere under it (contact term), quadratic or hinge bending, and its hierarchy.
+struct Fixture {
+  std::unique_ptr<test::Hanging> cloth;
+  hierarchy::TriangleHierarchy h;
+  std::vector<const hierarchy::TransferTable*> tables;
+};
+
+Fixture make(Index vertices, bool contact) {
+  Fixture f;
+  f.cloth = test::hanging(vertices, 1.0 / 30.0);
+  if (contact) {
+    std::vector<geometry::Obstacle> obstacles(1);
+    obstacles[0].shape = std::make_shared<geometry::Sphere>(0.1);
+    obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(
+        geometry::Pose{Eigen::Quaterniond::Identity(), Vec3(0.2, 0.08, -0.2)}, Vec3::Zero(), Vec3::Zero());
+    physics::ContactParams cp;
+    cp.thickness = 0.01;
+    const Index n = f.cloth->mesh.num_vertices();
+    f.cloth->objective.add(std::make_unique<physics::ObstacleContact>(VecX::Constant(n, 1e-4), obstacles, cp));
+    f.cloth->objective.finalize();
+  }
+  hierarchy::HierarchyParams hp;
+  hp.keep = f.cloth->pins;
+  hp.max_coarse_vertices = 60;
+  hp.min_coarse_vertices = 30;
+  f.h = hierarchy::build_triangle_hierarchy(f.cloth->mesh, hp);
+  for (Index l = 0; l + 1 < f.h.num_levels(); ++l) f.tables.push_back(&f.h.prolongation(l));
+  return f;
+}
+
+/// A state that bends and stretches the cloth and pushes part of it through the sphere.
+VecX perturbed(const Fixture& f, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  VecX x = f.cloth->x0;
+  for (Index i = 0; i < x.size() / 3; ++i) {
+    x[3 * i + 1] += 0.05 * std::sin(9.0 * x[3 * i]) + 0.004 * n01(rng);
+    x[3 * i] += 0.002 * n01(rng);
+    x[3 * i + 2] += 0.002 * n01(rng);
+  }
+  return x;
+}
+
+std::vector<double> device_x(const HostPipeline& p, const VecX& x) {
+  std::vector<double> xd;
+  cuda::to_device_order(p.layout(), x, xd);
+  return xd;
+}
+
+}  // namespace
+
+TEST(DeviceLayout, ColorsAreContiguousIndependentRowRangesAndTheNumberingIsABijection) {
+  const Fixture f = make(600, true);
+  const cuda::Layout L = cuda::build_layout(f.cloth->objective, f.tables);
+  ASSERT_EQ(L.levels.size(), f.tables.size() + 1);
+  ASSERT_GE(L.levels.size(), 3u);
+  for (const auto& level : L.levels) {
+    std::vector<Index> seen(level.perm.size(), 0);
+    for (Index v : level.perm) ++seen[static_cast<size_t>(v)];
+    for (Index c : seen) EXPECT_EQ(c, 1);
+    std::vector<Index> color(static_cast<size_t>(level.n), -1);
+    for (size_t c = 0; c + 1 < level.color_offsets.size(); ++c)
+      for (Index r = level.color_offsets[c]; r < level.color_offsets[c + 1]; ++r) color[static_cast<size_t>(r)] = static_cast<Index>(c);
+    for (Index r = 0; r < level.n; ++r) {
+      ASSERT_GE(color[static_cast<size_t>(r)], 0);
+      for (Index k = level.pattern.row_offsets()[r]; k < level.pattern.row_offsets()[r + 1]; ++k) {
+        const Index c = level.pattern.col_indices()[k];
+        if (c != r) {
+          EXPECT_NE(color[static_cast<size_t>(c)], color[static_cast<size_t>(r)]) << "rows " << r << ", " << c;
+        }
+      }
+    }
+  }
+  // Element colors: no two elements of a color share a vertex.
+  for (const cuda::ElementGroup* g : {&L.objective.tris, &L.objective.hinges}) {
+    EXPECT_GT(g->size(), 0);
+    for (size_t c = 0; c + 1 < g->color_offsets.size(); ++c) {
+      std::vector<char> used(static_cast<size_t>(L.objective.n), 0);
+      for (Index e = g->color_offsets[c]; e < g->color_offsets[c + 1]; ++e)
+        for (int a = 0; a < g->arity; ++a) {
+          const Index v = g->vertices[static_cast<size_t>(e * g->arity + a)];
+          EXPECT_FALSE(used[static_cast<size_t>(v)]) << "color " << c << " vertex " << v;
+          used[static_cast<size_t>(v)] = 1;
+        }
+    }
+  }
+}
+
+TEST(DevicePipeline, EnergyGradientAndHessianEqualTheCpuObjective) {
+  const Fixture f = make(500, true);
+  HostPipeline p(cuda::FmgSettings{});
+  p.build(f.cloth->objective, f.tables);
+  p.upload_step(f.cloth->objective);
+  const auto& perm = p.layout().levels[0].perm;
+  for (std::uint64_t seed : {1u, 2u}) {
+    const VecX x = perturbed(f, seed);
+    std::vector<double> xd = device_x(p, x);
+    const double e_cpu = f.cloth->objective.value(x);
+    EXPECT_NEAR(p.energy(xd.data()), e_cpu, 1e-12 * std::abs(e_cpu));
+    EXPECT_GT(f.cloth->objective.term_values(x).back().second, 0.0) << "the state must be in contact";
+    VecX g_cpu;
+    f.cloth->objective.gradient(x, g_cpu);
+    std::vector<double> gd(xd.size());
+    p.gradient(xd.data(), gd.data());
+    VecX g_dev;
+    cuda::from_device_order(p.layout(), gd, g_dev);
+    EXPECT_LE((g_dev - g_cpu).norm(), 1e-11 * g_cpu.norm());
+    linalg::BlockMatrix3 H = f.cloth->objective.hessian_pattern();
+    f.cloth->objective.hessian(x, H, /*project_psd=*/true);
+    p.hessian(xd.data());
+    const auto& top = p.levels()[0];
+    std::vector<double> blocks;
+    top.blocks.download(blocks);
+    double err = 0.0, scale = 0.0;
+    for (Index r = 0; r < top.n; ++r)
+      for (Index k = top.host_pattern.row_offsets()[r]; k < top.host_pattern.row_offsets()[r + 1]; ++k) {
+        const Index c = top.host_pattern.col_indices()[k];
+        const Mat3& ref = H.block(H.find(perm[static_cast<size_t>(r)], perm[static_cast<size_t>(c)]));
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            err = std::max(err, std::abs(blocks[9 * static_cast<size_t>(k) + 3 * i + j] - ref(i, j)));
+            scale = std::max(scale, std::abs(ref(i, j)));
+          }
+      }
+    EXPECT_LE(err, 1e-12 * scale);
+  }
+}
+
+TEST(DevicePipeline, GalerkinOperatorsAndSmoothersMatchTheCpuMultigrid) {
+  const Fixture f = make(600, false);
+  HostPipeline p(cuda::FmgSettings{});
+  p.build(f.cloth->objective, f.tables);
+  p.upload_step(f.cloth->objective);
+  const VecX x = perturbed(f, 3);
+  std::vector<double> xd = device_x(p, x);
+  p.hessian(xd.data());
+  p.update_hierarchy();
+  // CPU: A_{l+1} = Pᵀ A_l P in the problem's numbering.
+  linalg::BlockMatrix3 A = f.cloth->objective.hessian_pattern();
+  f.cloth->objective.hessian(x, A, true);
+  for (size_t l = 0; l + 1 < p.levels().size(); ++l) {
+    const auto& P = *f.tables[l];
+    const linalg::GalerkinProduct rap(A, P.num_coarse, P.offsets, P.indices, P.weights);
+    linalg::BlockMatrix3 Ac;
+    rap.compute(A, Ac);
+    const auto& level = p.levels()[l + 1];
+    const auto& perm = p.layout().levels[l + 1].perm;
+    std::vector<double> blocks;
+    level.blocks.download(blocks);
+    double err = 0.0, scale = 0.0;
+    for (Index r = 0; r < level.n; ++r)
+      for (Index k = level.host_pattern.row_offsets()[r]; k < level.host_pattern.row_offsets()[r + 1]; ++k) {
+        const Mat3& ref = Ac.block(Ac.find(perm[static_cast<size_t>(r)], perm[static_cast<size_t>(level.host_pattern.col_indices()[k])]));
+        for (int i = 0; i < 9; ++i) {
+          err = std::max(err, std::abs(blocks[9 * static_cast<size_t>(k) + static_cast<size_t>(i)] - ref(i / 3, i % 3)));
+          scale = std::max(scale, std::abs(ref(i / 3, i % 3)));
+        }
+      }
+    EXPECT_LE(err, 1e-12 * scale) << "level " << l + 1;
+    A = Ac;
+    EXPECT_GT(level.rho + p.levels()[l].rho, 0.0);
+  }
+}
+
+TEST(DevicePipeline, VCyclesContractLikeTheCpuMultigridWithEitherCoarseSolve) {
+  const Fixture f = make(800, true);
+  const VecX x = perturbed(f, 4);
+  // The CPU multigrid's contraction per V-cycle on the same matrix (same hierarchy, smoother and sweeps).
+  linalg::BlockMatrix3 A = f.cloth->objective.hessian_pattern();
+  f.cloth->objective.hessian(x, A, true);
+  solvers::MultigridParams mp;
+  mp.pre_smooth = mp.post_smooth = 3;
+  mp.chebyshev = true;
+  solvers::LinearMultigrid cpu(f.tables, A, mp);
+  cpu.set_matrix(A);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  VecX b_cpu(A.rows() * 3);
+  for (Index i = 0; i < b_cpu.size(); ++i) b_cpu[i] = n01(rng);
+  const double cpu_rate = cpu.contraction(b_cpu);
+  EXPECT_LT(cpu_rate, 0.9);
+  for (const std::string coarse : {"device", "host"}) {
+    cuda::FmgSettings s;
+    s.coarse_solve = coarse;
+    HostPipeline p(s);
+    p.build(f.cloth->objective, f.tables);
+    p.upload_step(f.cloth->objective);
+    std::vector<double> xd = device_x(p, x);
+    p.hessian(xd.data());
+    p.update_hierarchy();
+    auto& top = const_cast<HostPipeline::Level&>(p.levels()[0]);
+    const Index n3 = 3 * top.n;
+    std::vector<double> b;
+    cuda::to_device_order(p.layout(), b_cpu, b);
+    top.b.upload(b);
+    p.fill(top.x.data(), 0.0, n3);
+    std::vector<double> r(static_cast<size_t>(n3));
+    double r3 = 0.0, r10 = 0.0;
+    for (int k = 1; k <= 10; ++k) {
+      p.cycle(0, k == 1);
+      p.residual(top, top.b.data(), top.x.data(), r.data());
+      const double rn = std::sqrt(p.dot(r.data(), r.data(), n3));
+      if (k == 3) r3 = rn;
+      if (k == 10) r10 = rn;
+    }
+    const double rate = std::pow(r10 / r3, 1.0 / 7.0);
+    // Another vertex order of the Gauss-Seidel colors gives another (equally good) smoother, not the same numbers.
+    EXPECT_LT(rate, 1.15 * cpu_rate + 0.02) << coarse << ": device " << rate << ", CPU " << cpu_rate;
+  }
+}
+
+TEST(DevicePipeline, ProjectionMovesVerticesOutOfTheObstacle) {
+  const Fixture f = make(400, true);
+  HostPipeline p(cuda::FmgSettings{});
+  p.build(f.cloth->objective, f.tables);
+  p.upload_step(f.cloth->objective);
+  VecX x = perturbed(f, 6);
+  for (Index i = 0; i < x.size() / 3; ++i) x[3 * i + 1] += 0.12 * std::exp(-50.0 * (Vec3(x[3 * i], 0.0, x[3 * i + 2]) - Vec3(0.2, 0.0, -0.2)).squaredNorm());
+  VecX x_cpu = x;
+  const auto* contact = dynamic_cast<const physics::ObstacleContact*>(f.cloth->objective.terms().back().get());
+  ASSERT_NE(contact, nullptr);
+  const Index moved_cpu = physics::project_out_of_obstacles(x_cpu, contact->obstacles(), contact->poses());
+  std::vector<double> xd = device_x(p, x);
+  EXPECT_GT(moved_cpu, 0);
+  EXPECT_EQ(p.project(xd.data()), moved_cpu);
+  VecX x_dev;
+  cuda::from_device_order(p.layout(), xd, x_dev);
+  EXPECT_LE((x_dev - x_cpu).lpNorm<Eigen::Infinity>(), 1e-15);
+}
+
+TEST(DevicePipeline, TermsWithoutADeviceImplementationAreRejectedByName) {
+  Fixture f = make(300, false);
+  f.cloth->objective.add(std::make_unique<physics::SeamTerm>(std::vector<std::vector<Index>>{{0, 1}}, 1.0, f.cloth->mesh.num_vertices()));
+  f.cloth->objective.finalize();
+  try {
+    cuda::build_layout(f.cloth->objective, f.tables);
+    FAIL() << "a seam term was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("\"seam"), std::string::npos) << e.what();
+  }
+}
+
+TEST(DevicePipeline, TheCudaBackendRunsWhereAGpuIsPresentAndSaysWhyNotElsewhere) {
+  std::string why;
+  if (!cuda::cuda_available(&why)) {
+    EXPECT_FALSE(why.empty());
+    try {
+      cuda::make_device_fmg(cuda::Backend::Cuda, {});
+      FAIL() << "a CUDA solver was made without a GPU";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("no GPU"), std::string::npos) << e.what();
+    }
+    GTEST_SKIP() << "no GPU here (" << why << "); the CUDA kernels are tested on the GPU machine";
+  }
+  // Same start, same settings: the GPU pipeline and its host emulation reach the same minimizer.
+  const Fixture f = make(2000, true);
+  VecX x_gpu = f.cloth->x0, x_host = f.cloth->x0;
+  cuda::Limits limits;
+  limits.rel_grad = 1e-8;
+  limits.max_iters = 500;
+  auto gpu = cuda::make_device_fmg(cuda::Backend::Cuda, {});
+  auto host = cuda::make_device_fmg(cuda::Backend::Host, {});
+  const cuda::Outcome a = gpu->minimize(f.cloth->objective, f.tables, true, x_gpu, limits, false);
+  const cuda::Outcome b = host->minimize(f.cloth->objective, f.tables, true, x_host, limits, false);
+  EXPECT_EQ(a.status, "converged") << gpu->device();
+  EXPECT_EQ(b.status, "converged");
+  EXPECT_LE((x_gpu - x_host).norm(), 1e-5 * x_host.norm());
+  EXPECT_NEAR(a.energy, b.energy, 1e-9 * std::abs(b.energy));
+}
