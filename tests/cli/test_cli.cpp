@@ -157,6 +157,24 @@ TEST_F(Cli, BadInputGivesOneLineAndNonZeroExit) {
   EXPECT_NE(diverge.out.find("diverged"), std::string::npos) << diverge.out;
 }
 
+TEST_F(Cli, FmgCudaRunsOnTheGpuOrSaysWhyItCannot) {
+  const std::string scene = small_scene(R"(, "hierarchy": { "min_coarse_vertices": 20, "max_coarse_vertices": 40 })");
+  const auto gpu = run("run " + scene + " -q --frames 2 --solver fmg-cuda --out " + (dir / "gpu").string());
+  if (gpu.code == 0) GTEST_SKIP() << "a GPU ran fmg-cuda here; the message for machines without one is not tested";
+  EXPECT_EQ(gpu.code, 1);
+  EXPECT_NE(gpu.out.find("fmg-cuda: no GPU to run on"), std::string::npos) << gpu.out;
+  EXPECT_EQ(std::count(gpu.out.begin(), gpu.out.end(), '\n'), 1) << gpu.out;
+  // The same pipeline on the host backend runs the scene (pins, contact) through the CLI.
+  const auto host = run("run " + write("host.json", R"({ "frames": 2, "cloths": [ { "mesh": { "vertices": 300 },
+      "pins": [ { "points": [[0, 1], [1, 1]] } ] } ],
+      "obstacles": [ { "shape": { "type": "sphere", "radius": 0.2 }, "position": [0.5, 0.5, -0.3] } ],
+      "hierarchy": { "min_coarse_vertices": 20, "max_coarse_vertices": 40 },
+      "solver": { "name": "fmg-cuda", "params": { "backend": "host" } } })") + " -q --out " + (dir / "host").string());
+  EXPECT_EQ(host.code, 0) << host.out;
+  const auto stats = mgcloth::read_file(dir / "host" / "stats.csv");
+  EXPECT_NE(stats.find("fmg-cuda"), std::string::npos) << stats;
+}
+
 TEST_F(Cli, InfoReportsMeshAndRejectsBrokenFiles) {
   const auto good = write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n");
   const auto r = run("info " + good);

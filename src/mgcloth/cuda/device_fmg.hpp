@@ -24,6 +24,10 @@ struct FmgSettings {
   /// The coarsest level's solve: "device" (dense Cholesky on the device: cuSOLVER on the CUDA backend) or "host"
   /// (CHOLMOD on the CPU, the coarse vectors copied each way); "auto" is "device".
   std::string coarse_solve = "auto";
+  /// Time the V-cycle's parts (smoothing, coarse solve, transfers) with a device synchronization around each, and
+  /// report the smoother's achieved memory bandwidth (counters smoothing_ms, coarse_ms, transfer_ms,
+  /// smoother_gb_per_s). The synchronizations cost time, so the solve's own timing is taken with this off.
+  bool profile = false;
 };
 
 struct Limits {

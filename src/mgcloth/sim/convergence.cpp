@@ -641,9 +641,16 @@ std::vector<ScalabilityRow> run_scalability(const Scene& scene, const Scalabilit
         iterations += st.report.iterations;
         solve_ms += st.report.wall_ms;
         converged = converged && st.report.converged;
+        for (const auto& [name, value] : st.report.counters) {
+          if (!name.ends_with("_ms") && !name.ends_with("_per_s")) continue;
+          auto it = std::find_if(row.phases.begin(), row.phases.end(), [&](const auto& p) { return p.first == name; });
+          if (it == row.phases.end()) row.phases.push_back({name, value});
+          else it->second += value;
+        }
       }
       row.unconverged_steps += converged ? 0 : 1;
     }
+    for (auto& p : row.phases) p.second /= static_cast<double>(opt.steps);
     row.ms_per_step = step_ms / opt.steps;
     row.solve_ms_per_step = solve_ms / opt.steps;
     row.iterations_per_step = static_cast<double>(iterations) / opt.steps;
@@ -656,12 +663,16 @@ std::vector<ScalabilityRow> run_scalability(const Scene& scene, const Scalabilit
 
 std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const ScalabilityOptions& opt) {
   std::string out = "vertices,solver,ms_per_step,iterations_per_step,solve_ms_per_step,unconverged_steps,target_vertices,"
-                    "steps,warmup,rel_grad,threads,setup_ms\n";
+                    "steps,warmup,rel_grad,threads,setup_ms,ms_per_iteration,phases\n";
   const int threads = opt.threads > 0 ? opt.threads : num_threads();
-  for (const auto& r : rows)
-    out += fmt::format("{},{},{:.6g},{:.6g},{:.6g},{},{},{},{},{:g},{},{:.6g}\n", r.vertices, r.solver, r.ms_per_step,
-                       r.iterations_per_step, r.solve_ms_per_step, r.unconverged_steps, r.target_vertices, opt.steps,
-                       opt.warmup, opt.rel_grad, threads, r.setup_ms);
+  for (const auto& r : rows) {
+    std::string phases;
+    for (const auto& [name, value] : r.phases) phases += fmt::format("{}{}={:.4g}", phases.empty() ? "" : ";", name, value);
+    const double per_iteration = r.iterations_per_step > 0.0 ? r.solve_ms_per_step / r.iterations_per_step : 0.0;
+    out += fmt::format("{},{},{:.6g},{:.6g},{:.6g},{},{},{},{},{:g},{},{:.6g},{:.6g},\"{}\"\n", r.vertices, r.solver,
+                       r.ms_per_step, r.iterations_per_step, r.solve_ms_per_step, r.unconverged_steps, r.target_vertices,
+                       opt.steps, opt.warmup, opt.rel_grad, threads, r.setup_ms, per_iteration, phases);
+  }
   return out;
 }
 

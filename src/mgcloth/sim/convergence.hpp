@@ -158,13 +158,15 @@ struct ScalabilityRow {
   double iterations_per_step = 0.0;
   int unconverged_steps = 0;  ///< steps that stopped before reaching rel_grad
   double setup_ms = 0.0;      ///< building the simulator (meshes, objectives)
+  /// The solver's *_ms counters (time per phase) and its rates (*_per_s), per measured step (rates: averaged).
+  std::vector<std::pair<std::string, double>> phases;
 };
 
 /// For each vertex count: builds the scene with that count, simulates opt.warmup steps, then times opt.steps steps
 /// with the solver stopping at opt.rel_grad (and the scene's max_iters). The spec is checked first.
 std::vector<ScalabilityRow> run_scalability(const Scene& scene, const ScalabilityOptions& opt);
 /// scalability.csv: vertices,solver,ms_per_step,iterations_per_step,solve_ms_per_step,unconverged_steps,
-/// target_vertices,steps,warmup,rel_grad,threads,setup_ms.
+/// target_vertices,steps,warmup,rel_grad,threads,setup_ms,ms_per_iteration,phases (phases: "name=ms;…" per step).
 std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const ScalabilityOptions& opt);
 
 }  // namespace mgcloth::sim

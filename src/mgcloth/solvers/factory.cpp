@@ -116,6 +116,7 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
   p.max_line_search_steps = r.integer("max_line_search_steps", p.max_line_search_steps, 1, 200);
   p.coarse_solve = r.choice("coarse_solve", p.coarse_solve, {"auto", "device", "host"});
   c.backend = r.choice("backend", c.backend, {"cuda", "host"});
+  p.profile = r.boolean("profile", p.profile);
   return c;
 }
 Json write_fmg_cuda(const FmgCudaConfig& c) {
@@ -131,7 +132,8 @@ Json write_fmg_cuda(const FmgCudaConfig& c) {
           {"backtrack", p.shrink},
           {"max_line_search_steps", p.max_line_search_steps},
           {"coarse_solve", p.coarse_solve},
-          {"backend", c.backend}};
+          {"backend", c.backend},
+          {"profile", p.profile}};
 }
 
 FasParams read_fas(JsonReader& r, FasParams p) {
