@@ -5,8 +5,8 @@
 # runs it there. Usage: scripts/package_device.sh  (after scripts/setup.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-grep -q "MGCLOTH_HAVE_CUDA:INTERNAL=ON\|CUDA backend ON" build/CMakeCache.txt 2>/dev/null ||
-  grep -q "^CMAKE_CUDA_COMPILER:" build/CMakeCache.txt || { echo "package_device: build/ has no CUDA backend" >&2; exit 1; }
+grep -q "^MGCLOTH_CUDA_BUILT:INTERNAL=ON" build/CMakeCache.txt 2>/dev/null ||
+  { echo "package_device: build/ has no CUDA backend (is nvcc installed? see MGCLOTH_CUDA in CMakeLists.txt)" >&2; exit 1; }
 cmake --build build -j "$(nproc)" --target mgcloth_cli mgcloth_tests_cuda mgcloth_tests_solvers mgcloth_tests_sim
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
