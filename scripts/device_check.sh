@@ -45,6 +45,8 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     bench "gpu_dt1_$((30 * sub))" --vertices 40000,120000,250000 --solver fmg-cuda --substeps $sub --steps 5 --warmup 3 --rel-grad 0.01
     bench "gpu_profile_dt1_$((30 * sub))" --vertices 120000 --solver fmg-cuda@profile=true --substeps $sub --steps 3 --warmup 3 --rel-grad 0.01
   done
+  bench gpu_nographs_dt1_30 --vertices 120000 --solver fmg-cuda@graphs=false --substeps 1 --steps 5 --warmup 3 --rel-grad 0.01
+  bench gpu_hostcoarse_dt1_30 --vertices 120000 --solver fmg-cuda@coarse_solve=host --substeps 1 --steps 5 --warmup 3 --rel-grad 0.01
   bench cpu16_dt1_30 --vertices 120000 --solver fmg --threads 16 --substeps 1 --steps 3 --warmup 3 --rel-grad 0.01
   [ -f "$root/all.csv" ] && cp "$root/all.csv" "$out/scalability.csv"
 fi

@@ -8,6 +8,7 @@
 #include <mgcloth/core/types.hpp>
 
 #include <algorithm>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -95,6 +96,27 @@ __global__ void sum_kernel(Index n, F f, double* partial) {
 
 __global__ void final_sum_kernel(const double* partial, int m, double* out);
 
+/// The stream every kernel runs on: created once, blocking with respect to the legacy default stream, so that the
+/// buffers' synchronous copies (cudaMemcpy) stay ordered with the kernels; kernels on it can be captured as graphs.
+cudaStream_t pipeline_stream();
+
+/// A captured sequence of kernels (a CUDA graph), instantiated once and replayed.
+class CudaGraph {
+ public:
+  CudaGraph() = default;
+  CudaGraph(const CudaGraph&) = delete;
+  CudaGraph& operator=(const CudaGraph&) = delete;
+  ~CudaGraph() { reset(); }
+  bool ready() const { return exec != nullptr; }
+  void reset() {
+    if (exec) cudaGraphExecDestroy(exec);
+    exec = nullptr;
+    failed = false;
+  }
+  cudaGraphExec_t exec = nullptr;
+  bool failed = false;  ///< the capture failed once (something in it cannot be captured): run without a graph
+};
+
 /// Scratch of the reductions (device partial sums, pinned result), allocated once per process.
 double* reduce_partials();
 double* reduce_result_device();
@@ -109,21 +131,29 @@ struct CudaBackend {
   template <class F>
   static void for_each(Index n, F f) {
     if (n <= 0) return;
-    for_each_kernel<<<(n + kThreads - 1) / kThreads, kThreads>>>(n, f);
+    for_each_kernel<<<(n + kThreads - 1) / kThreads, kThreads, 0, pipeline_stream()>>>(n, f);
     check_cuda(cudaGetLastError(), "kernel launch");
   }
   template <class F>
   static double sum(Index n, F f) {
     if (n <= 0) return 0.0;
     const int blocks = static_cast<int>(std::min<Index>(kMaxReduceBlocks, (n + kThreads - 1) / kThreads));
-    sum_kernel<<<blocks, kThreads>>>(n, f, reduce_partials());
+    cudaStream_t s = pipeline_stream();
+    sum_kernel<<<blocks, kThreads, 0, s>>>(n, f, reduce_partials());
     check_cuda(cudaGetLastError(), "reduction launch");
-    final_sum_kernel<<<1, kThreads>>>(reduce_partials(), blocks, reduce_result_device());
-    check_cuda(cudaMemcpy(reduce_result_host(), reduce_result_device(), sizeof(double), cudaMemcpyDeviceToHost),
+    final_sum_kernel<<<1, kThreads, 0, s>>>(reduce_partials(), blocks, reduce_result_device());
+    check_cuda(cudaMemcpyAsync(reduce_result_host(), reduce_result_device(), sizeof(double), cudaMemcpyDeviceToHost, s),
                "reduction result");
+    check_cuda(cudaStreamSynchronize(s), "reduction result");
     return *reduce_result_host();
   }
-  static void synchronize() { check_cuda(cudaDeviceSynchronize(), "cudaDeviceSynchronize"); }
+  static void synchronize() { check_cuda(cudaStreamSynchronize(pipeline_stream()), "cudaStreamSynchronize"); }
+
+  using Graph = CudaGraph;
+  /// Stream capture of body's kernels into g (none runs); false, with g.failed, when the capture or instantiation
+  /// failed (something in body cannot be captured): the caller then runs body directly.
+  static bool capture(Graph& g, const std::function<void()>& body);
+  static void launch(const Graph& g) { check_cuda(cudaGraphLaunch(g.exec, pipeline_stream()), "cudaGraphLaunch"); }
 
   /// Dense Cholesky of an N x N column-major SPD matrix in device memory: cuSOLVER potrf/potrs where the library
   /// can be loaded, else the factor is computed on the host (and each solve goes through it).

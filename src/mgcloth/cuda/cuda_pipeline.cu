@@ -42,6 +42,46 @@ Scratch& scratch() {
 }
 }  // namespace
 
+cudaStream_t pipeline_stream() {
+  static cudaStream_t s = [] {
+    cudaStream_t created = nullptr;
+    check_cuda(cudaStreamCreate(&created), "cudaStreamCreate");
+    return created;
+  }();
+  return s;
+}
+
+bool CudaBackend::capture(Graph& g, const std::function<void()>& body) {
+  g.reset();
+  cudaStream_t s = pipeline_stream();
+  const auto give_up = [&] {
+    cudaGraph_t partial = nullptr;
+    cudaStreamCaptureStatus status;
+    if (cudaStreamIsCapturing(s, &status) == cudaSuccess && status != cudaStreamCaptureStatusNone) {
+      cudaStreamEndCapture(s, &partial);
+      if (partial) cudaGraphDestroy(partial);
+    }
+    (void)cudaGetLastError();
+    g.failed = true;
+    return false;
+  };
+  if (cudaStreamBeginCapture(s, cudaStreamCaptureModeThreadLocal) != cudaSuccess) return give_up();
+  try {
+    body();
+  } catch (const std::exception&) {
+    return give_up();
+  }
+  cudaGraph_t graph = nullptr;
+  if (cudaStreamEndCapture(s, &graph) != cudaSuccess || !graph) return give_up();
+  const cudaError_t e = cudaGraphInstantiate(&g.exec, graph, 0);
+  cudaGraphDestroy(graph);
+  if (e != cudaSuccess) {
+    g.exec = nullptr;
+    return give_up();
+  }
+  return true;
+}
+
 double* reduce_partials() { return scratch().partials; }
 double* reduce_result_device() { return scratch().result; }
 double* reduce_result_host() { return scratch().host; }
@@ -62,6 +102,7 @@ struct CudaBackend::DenseCholesky::Impl {
   using BufferSize = cusolverStatus_t (*)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, int*);
   using Potrf = cusolverStatus_t (*)(cusolverDnHandle_t, cublasFillMode_t, int, double*, int, double*, int, int*);
   using Potrs = cusolverStatus_t (*)(cusolverDnHandle_t, cublasFillMode_t, int, int, const double*, int, double*, int, int*);
+  using SetStream = cusolverStatus_t (*)(cusolverDnHandle_t, cudaStream_t);
   void* lib = nullptr;
   cusolverDnHandle_t handle = nullptr;
   Create create = nullptr;
@@ -87,7 +128,10 @@ struct CudaBackend::DenseCholesky::Impl {
     buffer_size = reinterpret_cast<BufferSize>(dlsym(lib, "cusolverDnDpotrf_bufferSize"));
     potrf = reinterpret_cast<Potrf>(dlsym(lib, "cusolverDnDpotrf"));
     potrs = reinterpret_cast<Potrs>(dlsym(lib, "cusolverDnDpotrs"));
-    if (!create || !destroy || !buffer_size || !potrf || !potrs || create(&handle) != CUSOLVER_STATUS_SUCCESS) {
+    const auto set_stream = reinterpret_cast<SetStream>(dlsym(lib, "cusolverDnSetStream"));
+    // On the pipeline's stream, so that the coarse solve is ordered with the kernels and captured with them.
+    if (!create || !destroy || !buffer_size || !potrf || !potrs || !set_stream || create(&handle) != CUSOLVER_STATUS_SUCCESS ||
+        set_stream(handle, pipeline_stream()) != CUSOLVER_STATUS_SUCCESS) {
       handle = nullptr;
       dlclose(lib);
       lib = nullptr;
@@ -112,7 +156,8 @@ bool CudaBackend::DenseCholesky::factorize(const double* A, Index N) {
     return m.llt.info() == Eigen::Success;
   }
   m.factor.resize(static_cast<size_t>(N) * static_cast<size_t>(N));
-  check_cuda(cudaMemcpy(m.factor.data(), A, m.factor.size() * sizeof(double), cudaMemcpyDeviceToDevice), "coarse copy");
+  check_cuda(cudaMemcpyAsync(m.factor.data(), A, m.factor.size() * sizeof(double), cudaMemcpyDeviceToDevice,
+                             pipeline_stream()), "coarse copy");
   int lwork = 0;
   if (m.buffer_size(m.handle, CUBLAS_FILL_MODE_LOWER, N, m.factor.data(), N, &lwork) != CUSOLVER_STATUS_SUCCESS)
     fail("fmg-cuda: cusolverDnDpotrf_bufferSize failed");
@@ -136,7 +181,8 @@ void CudaBackend::DenseCholesky::solve(const double* b, double* x) {
     check_cuda(cudaMemcpy(x, sol.data(), N * sizeof(double), cudaMemcpyHostToDevice), "coarse solution upload");
     return;
   }
-  if (x != b) check_cuda(cudaMemcpy(x, b, N * sizeof(double), cudaMemcpyDeviceToDevice), "coarse rhs copy");
+  if (x != b)
+    check_cuda(cudaMemcpyAsync(x, b, N * sizeof(double), cudaMemcpyDeviceToDevice, pipeline_stream()), "coarse rhs copy");
   if (m.potrs(m.handle, CUBLAS_FILL_MODE_LOWER, m.N, 1, m.factor.data(), m.N, x, m.N, m.info.data()) !=
       CUSOLVER_STATUS_SUCCESS)
     fail("fmg-cuda: cusolverDnDpotrs failed");

@@ -28,6 +28,8 @@ struct FmgSettings {
   /// report the smoother's achieved memory bandwidth (counters smoothing_ms, coarse_ms, transfer_ms,
   /// smoother_gb_per_s). The synchronizations cost time, so the solve's own timing is taken with this off.
   bool profile = false;
+  /// Replay the V-cycle as one captured graph (CUDA Graphs) instead of launching its kernels one by one.
+  bool graphs = true;
 };
 
 struct Limits {

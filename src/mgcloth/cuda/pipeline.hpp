@@ -110,6 +110,7 @@ class Pipeline final : public DeviceFmg {
     }
     m_have_matrix = false;
     for (auto& L : m_levels) L.rho = 0.0;
+    m_vcycle_graph.reset();
   }
 
   const std::vector<Level>& levels() const { return m_levels; }
@@ -627,6 +628,7 @@ class Pipeline final : public DeviceFmg {
   double m_rows_active = 0.0, m_rows_total = 0.0;
   std::vector<double> m_beta;
   Profile m_prof;
+  typename B::Graph m_vcycle_graph;
 };
 
 template <class B>
@@ -659,7 +661,10 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
          *Ap = m_Ap.data(), *sv = m_s_vec.data(), *As = m_As.data(), *trial = m_trial.data(),
          *g_trial = m_g_trial.data();
   Level& top = m_levels[0];
-  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, refreshes = 0;
+  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, refreshes = 0, graph_launches = 0;
+  // Graphs hold only device work: not with the host coarse solve (copies), the adaptive mask (reductions) or the
+  // profile's synchronizations.
+  const bool use_graphs = m_s.graphs && m_s.coarse_solve == "device" && !(m_s.adaptive_threshold > 0.0) && !m_s.profile;
   const auto timed = [&](double& slot, auto&& f) {
     Timer t;
     f();
@@ -715,10 +720,24 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     // One linear V-cycle of the Galerkin hierarchy from c = 0 on the residual (Theorem 4.2: an SPD operator, so
     // c·r > 0 and c is a descent direction).
     timed(ms.linear, [&] {
-      copy(r, top.b.data(), n3);
-      fill(top.x.data(), 0.0, n3);
-      cycle(0, true);
-      copy(top.x.data(), d, n3);
+      const auto vcycle = [&] {
+        copy(r, top.b.data(), n3);
+        fill(top.x.data(), 0.0, n3);
+        cycle(0, true);
+        copy(top.x.data(), d, n3);
+      };
+      // The V-cycle is the same sequence of launches on the same buffers every time (2 × colors per sweep on every
+      // level): captured once as a graph and replayed, it costs one launch. Its kernels read the matrices, not
+      // copies of them, so a new matrix needs no new graph.
+      if (use_graphs) {
+        if (!m_vcycle_graph.ready() && !m_vcycle_graph.failed) B::capture(m_vcycle_graph, vcycle);
+        if (m_vcycle_graph.ready()) {
+          B::launch(m_vcycle_graph);
+          ++graph_launches;
+          return;
+        }
+      }
+      vcycle();
     });
     const double cr = dot(d, r, n3);
     if (!(cr > 0.0)) {
@@ -894,7 +913,8 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
                   {"line_search_ms", ms.line_search},
                   {"gradient_ms", ms.gradient},
                   {"model_ms", ms.model},
-                  {"levels", static_cast<double>(m_levels.size())}};
+                  {"levels", static_cast<double>(m_levels.size())},
+                  {"graph_launches", static_cast<double>(graph_launches)}};
   if (m_s.profile) {
     out.counters.push_back({"smoothing_ms", m_prof.smoothing});
     out.counters.push_back({"coarse_ms", m_prof.coarse});

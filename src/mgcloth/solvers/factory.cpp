@@ -117,6 +117,7 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
   p.coarse_solve = r.choice("coarse_solve", p.coarse_solve, {"auto", "device", "host"});
   c.backend = r.choice("backend", c.backend, {"cuda", "host"});
   p.profile = r.boolean("profile", p.profile);
+  p.graphs = r.boolean("graphs", p.graphs);
   return c;
 }
 Json write_fmg_cuda(const FmgCudaConfig& c) {
@@ -133,7 +134,8 @@ Json write_fmg_cuda(const FmgCudaConfig& c) {
           {"max_line_search_steps", p.max_line_search_steps},
           {"coarse_solve", p.coarse_solve},
           {"backend", c.backend},
-          {"profile", p.profile}};
+          {"profile", p.profile},
+          {"graphs", p.graphs}};
 }
 
 FasParams read_fas(JsonReader& r, FasParams p) {
