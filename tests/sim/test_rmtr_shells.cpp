@@ -218,6 +218,43 @@ TEST(Rmtr, KeptCoarseStartsReachTheSameMinimizer) {
   EXPECT_GE(kept, 1.0) << "no visit kept its coarse state";
 }
 
+// Nested iteration leaves each coarse level at its own solution, and coarse_start "best" starts that level's first
+// coarse correction there, not at the projection of the fine iterate (whose coarse energy can be 1e60 J and more at
+// depth); level_states() hands those states to a resumed solve, which starts its first V-cycle from them too.
+TEST(Rmtr, CoarseLevelsStartFromTheirNestedSolutionsAndResumeFromTheirStates) {
+  sim::Scene scene = shell_scene("drooping", 2);
+  scene.solver.name = "rmtr";
+  scene.solver.params = Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}};
+  scene.solver.stop.max_iters = 1;
+  sim::Simulator sim(scene);
+  VecX x;
+  solvers::Problem problem = sim.prepare_shell_problem(0, x);
+  auto& solver = sim.shell_solver(0);
+  const auto counter = [](const solvers::SolveReport& r, const std::string& key) {
+    for (const auto& [k, v] : r.counters)
+      if (k == key) return v;
+    return -1.0;
+  };
+  const auto first = solver.minimize(problem, x, scene.solver.stop, nullptr);
+  EXPECT_EQ(first.iterations, 1);
+  EXPECT_GE(counter(first, "level1_starts_kept"), 1.0) << "the first V-cycle did not start from the nested solution";
+  const std::vector<VecX> states = solver.level_states();
+  ASSERT_EQ(states.size(), 1u);
+  EXPECT_EQ(states[0].size(), sim.shells()[0]->level_objective(0).num_dofs());
+  // Resumed without nested iteration: the coarse levels start from the handed states, else from projections.
+  sim::Scene fine = scene;
+  fine.solver.params["initial"] = "fine";
+  for (const bool handed : {true, false}) {
+    sim::Simulator again(fine);
+    VecX y;
+    solvers::Problem p = again.prepare_shell_problem(0, y);
+    y = x;
+    if (handed) again.shell_solver(0).resume_level_states(states);
+    const auto rep = again.shell_solver(0).minimize(p, y, fine.solver.stop, nullptr);
+    EXPECT_EQ(counter(rep, "level1_starts_kept") >= 1.0, handed) << (handed ? "handed" : "not handed");
+  }
+}
+
 // The exact trust-region step (Moré-Sorensen on the dense generalized eigenproblem) as the smoother of every level:
 // the same minimizer as the dogleg TR on a small problem.
 TEST(Rmtr, ExactTrustRegionSmootherReachesTheSameMinimizer) {

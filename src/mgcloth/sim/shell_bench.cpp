@@ -35,7 +35,7 @@ fs::path state_path(const ShellBenchOptions& opt, const std::string& shell, int 
   return fs::path(opt.states_dir) / (name + ".state.json");
 }
 
-void write_state(const fs::path& path, const ShellBenchRow& r, const VecX& x) {
+void write_state(const fs::path& path, const ShellBenchRow& r, const VecX& x, const std::vector<VecX>& levels) {
   Json c = Json::object();
   for (const auto& [k, v] : r.counters) c[k] = v;
   Json j = {{"format", "mgcloth shell bench state 1"}, {"scene", r.scene}, {"shell", r.shell}, {"level", r.level},
@@ -43,13 +43,17 @@ void write_state(const fs::path& path, const ShellBenchRow& r, const VecX& x) {
             {"status", r.status}, {"energy", r.energy}, {"grad_norm", r.grad_norm},
             {"initial_grad_norm", r.initial_grad_norm}, {"wall_s", r.wall_s}, {"counters", c}};
   j["x"] = std::vector<double>(x.data(), x.data() + x.size());
+  // The solver's own iterates besides x (RMTR's coarse levels), so that a resumed solve goes on as it would have.
+  Json lv = Json::array();
+  for (const VecX& v : levels) lv.push_back(std::vector<double>(v.data(), v.data() + v.size()));
+  j["level_states"] = lv;
   std::error_code ec;
   fs::create_directories(path.parent_path(), ec);
   write_file_atomic(path, j.dump() + "\n");
 }
 
 /// The row and iterate of an earlier part of this solve; throws InputError naming the file where it is not one.
-ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX& x) {
+ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX& x, std::vector<VecX>& levels) {
   const std::string file = path.string();
   const Json j = load_json(file);
   const auto field = [&](const char* key) -> const Json& {
@@ -83,6 +87,14 @@ ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX
       throw_input_error("{}: \"x\" has {} entries, the shell {} dofs", file, values.size(), r.dofs);
     x = Eigen::Map<const VecX>(values.data(), static_cast<Index>(values.size()));
     if (!x.allFinite()) throw_input_error("{}: \"x\" has a non-finite entry", file);
+    levels.clear();
+    if (j.contains("level_states")) {  // absent in states written before it existed
+      for (const auto& v : j.at("level_states")) {
+        const auto values = v.get<std::vector<double>>();
+        levels.push_back(Eigen::Map<const VecX>(values.data(), static_cast<Index>(values.size())));
+        if (!levels.back().allFinite()) throw_input_error("{}: \"level_states\" has a non-finite entry", file);
+      }
+    }
     if (r.iterations < 0 || !(r.wall_s >= 0.0)) throw_input_error("{}: negative iterations or wall_s", file);
     return r;
   } catch (const Json::exception& e) {
@@ -139,7 +151,8 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           const fs::path state = opt.states_dir.empty() ? fs::path() : state_path(opt, row.shell, level, spec.label);
           std::optional<ShellBenchRow> before;
           VecX resumed;
-          if (opt.resume && !state.empty() && fs::exists(state)) before = read_state(state, row, resumed);
+          std::vector<VecX> resumed_levels;
+          if (opt.resume && !state.empty() && fs::exists(state)) before = read_state(state, row, resumed, resumed_levels);
           if (before && before->converged) {
             logger().info("{} level {} {}: converged in an earlier run ({})", row.shell, level, spec.label, state.string());
             rows.push_back(*before);
@@ -150,8 +163,10 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           solvers::Problem problem = sim.prepare_shell_problem(s, x);
           if (before) {
             x = resumed;
-            logger().info("{} level {} {}: resumed after {} iterations ({})", row.shell, level, spec.label,
-                          before->iterations, state.string());
+            sim.shell_solver(s).resume_level_states(resumed_levels);
+            logger().info("{} level {} {}: resumed after {} iterations ({}{})", row.shell, level, spec.label,
+                          before->iterations, state.string(),
+                          resumed_levels.empty() ? "" : fmt::format(", with {} coarse level states", resumed_levels.size()));
           }
           Timer timer;
           solvers::Stop stop = scene.solver.stop;
@@ -174,7 +189,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
               if (before)
                 for (const auto& [k, v] : before->counters)
                   if (k.find("_nested_cycles") != std::string::npos) c.counters.emplace_back(k, v);
-              write_state(state, c, xc);
+              write_state(state, c, xc, sim.shell_solver(s).level_states());
               logger().debug("{} level {} {}: checkpoint after {} iterations ({})", row.shell, level, spec.label,
                              c.iterations, state.string());
             };
@@ -202,7 +217,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
               if (k.find("_nested_cycles") != std::string::npos) row.counters.emplace_back(k, v);
             row.counters.emplace_back("resumed_iterations", before->iterations);
           }
-          if (!state.empty() && row.status != "diverged") write_state(state, row, x);
+          if (!state.empty() && row.status != "diverged") write_state(state, row, x, sim.shell_solver(s).level_states());
           logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
                         spec.label, row.iterations, row.status, row.wall_s);
           rows.push_back(std::move(row));

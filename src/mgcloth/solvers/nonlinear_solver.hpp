@@ -88,6 +88,13 @@ class NonlinearSolver {
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
+  /// Iterates besides x that a solve stopped part-way needs to go on as it would have (RMTR: every coarse level's
+  /// state, where its coarse corrections start from); empty for most solvers. Valid during (for checkpoints) and
+  /// after minimize().
+  virtual std::vector<VecX> level_states() const { return {}; }
+  /// Hands level_states() of an earlier part of the same solve to the next minimize(), which then goes on from
+  /// them instead of starting afresh (ignored where they do not fit the problem).
+  virtual void resume_level_states(std::vector<VecX> /*states*/) {}
 };
 
 /// Pieces every iterative solver shares.

@@ -480,6 +480,10 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
       m_start_gradient = nullptr;
       f_end = m_finest_energy;
     }
+    // The level's solution is where its coarse corrections start from (coarse_start "best"): a projection of a
+    // wrinkled fine state onto a coarse control mesh can have a coarse energy of 1e60 J and more (the woven
+    // material's exponential response to the strains the projection introduces), where its model resolves nothing.
+    if (m_params.coarse_start == "best") L.last_end = xt;
     // The next level starts from the lowest-energy of: its own start; that start corrected by S (x_t − x_t⁰), which
     // keeps the start's fine-scale content (a warm start's wrinkles); and S x_t, the coarse solution alone, which
     // is what is left when that content does not move with a large coarse motion (it is not rotated with it).
@@ -503,6 +507,13 @@ void Rmtr::nested_start(VecX& x, const LocalTrControl& base) {
   x = xs[static_cast<size_t>(top)];
 }
 
+std::vector<VecX> Rmtr::level_states() const {
+  std::vector<VecX> out;
+  if (m_params.coarse_start != "best" || m_levels.size() < 2) return out;
+  for (size_t i = 0; i + 1 < m_levels.size(); ++i) out.push_back(m_levels[i]->last_end);
+  return out;
+}
+
 double Rmtr::work_units_assembly() const {
   double w = 0.0;
   const int top = static_cast<int>(m_counters.size()) - 1;
@@ -524,6 +535,11 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     lv->tr->reset();
     lv->last_end.resize(0);  // a previous solve's states belong to another time step
   }
+  // An earlier part of this solve (a resumed benchmark): its coarse levels' kept states.
+  if (m_params.coarse_start == "best" && m_resume_states.size() + 1 == m_levels.size())
+    for (size_t i = 0; i < m_resume_states.size(); ++i)
+      if (m_resume_states[i].size() == m_levels[i]->f->num_dofs()) m_levels[i]->last_end = m_resume_states[i];
+  m_resume_states.clear();
   m_counters.assign(m_levels.size(), {});
   m_corrections.clear();
   m_finest_energies.clear();

@@ -129,6 +129,9 @@ class Rmtr final : public NonlinearSolver {
   const std::vector<RmtrCorrection>& corrections() const { return m_corrections; }
   /// Finest-level energy after every change of the finest iterate (smoothing steps and accepted corrections).
   const std::vector<double>& finest_energies() const { return m_finest_energies; }
+  /// coarse_start "best": each coarse level's kept state, coarsest first (empty otherwise).
+  std::vector<VecX> level_states() const override;
+  void resume_level_states(std::vector<VecX> states) override { m_resume_states = std::move(states); }
   /// Work units of eq. 7.3 for the last minimize(): Σ_l 2^{-2(L-l)} Q^l, with Q^l Hessian assemblies (assembly) or
   /// QP calls (qp) on level l.
   double work_units_assembly() const;
@@ -172,6 +175,7 @@ class Rmtr final : public NonlinearSolver {
   std::vector<RmtrCorrection> m_corrections;
   std::vector<double> m_finest_energies;
   std::vector<int> m_nested_cycles;  ///< V-cycles (coarsest: Local_TR iterations) per level of nested iteration
+  std::vector<VecX> m_resume_states;  ///< resume_level_states() for the next minimize()
 };
 
 }  // namespace mgcloth::solvers
