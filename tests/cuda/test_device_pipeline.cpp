@@ -41,11 +41,7 @@ Fixture make(Index vertices, bool contact) {
     f.cloth->objective.add(std::make_unique<physics::ObstacleContact>(VecX::Constant(n, 1e-4), obstacles, cp));
     f.cloth->objective.finalize();
   }
-  hierarchy::HierarchyParams hp;
-  hp.keep = f.cloth->pins;
-  hp.max_coarse_vertices = 60;
-  hp.min_coarse_vertices = 30;
-  f.h = hierarchy::build_triangle_hierarchy(f.cloth->mesh, hp);
+  f.h = test::small_hierarchy(*f.cloth);
   for (Index l = 0; l + 1 < f.h.num_levels(); ++l) f.tables.push_back(&f.h.prolongation(l));
   return f;
 }

@@ -1,5 +1,6 @@
 #pragma once
 // A small hanging-cloth objective shared by the solver tests.
+#include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/attachment.hpp>
@@ -51,5 +52,14 @@ inline std::unique_ptr<Hanging> hanging(Index vertices, double h) {
   p->pins = {a, b};
   p->objective.finalize();
   return p;
+}
+
+/// The cloth's multigrid hierarchy, pins kept on every level, coarsest level of 30-60 vertices.
+inline hierarchy::TriangleHierarchy small_hierarchy(const Hanging& cloth) {
+  hierarchy::HierarchyParams hp;
+  hp.keep = cloth.pins;
+  hp.max_coarse_vertices = 60;
+  hp.min_coarse_vertices = 30;
+  return hierarchy::build_triangle_hierarchy(cloth.mesh, hp);
 }
 }  // namespace mgcloth::test

@@ -55,11 +55,7 @@ TEST(FmgCuda, WithoutAGpuTheSolverCannotBeMadeAndTheMessageSaysWhy) {
 
 TEST(FmgCuda, TheDevicePipelineReachesTheSameMinimizerAsNewtonAndTheCpuFmg) {
   auto cloth = test::hanging(900, 1.0 / 30.0);
-  hierarchy::HierarchyParams hp;
-  hp.keep = cloth->pins;
-  hp.max_coarse_vertices = 60;
-  hp.min_coarse_vertices = 30;
-  const hierarchy::TriangleHierarchy h = hierarchy::build_triangle_hierarchy(cloth->mesh, hp);
+  const hierarchy::TriangleHierarchy h = test::small_hierarchy(*cloth);
   solvers::Problem problem;
   problem.objective = &cloth->objective;
   for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));

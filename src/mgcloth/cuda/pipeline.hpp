@@ -172,34 +172,88 @@ class Pipeline final : public DeviceFmg {
     return e;
   }
 
+  /// The membrane's and the bending's elements as views that kernels capture by value: stencils, block slots and
+  /// rest data; operator() evaluates one element from its gathered positions (hd:: element math).
+  struct TriangleView {
+    static constexpr int K = 3;
+    const Index *v, *slots;
+    const double *dm, *at;
+    double mu, lambda;
+    MGCLOTH_HOST_DEVICE double operator()(Index t, const double* xe, double* g, double* H) const {
+      return hd::stvk_triangle(xe, dm + 4 * t, at[t], mu, lambda, g, H, /*clamp_stress=*/H != nullptr);
+    }
+  };
+  struct HingeView {
+    static constexpr int K = 4;
+    const Index *v, *slots;
+    const double *c, *k;
+    bool quadratic;
+    MGCLOTH_HOST_DEVICE double operator()(Index h, const double* xe, double* g, double* H) const {
+      return quadratic ? hd::quadratic_bending(xe, k + 4 * h, c[h], g, H) : hd::hinge_bending_psd(xe, c[h], g, H);
+    }
+  };
+  TriangleView triangles() const {
+    const ObjectiveLayout& O = m_layout.objective;
+    return {m_tri_v.data(), m_tri_slots.data(), m_tri_dm.data(), m_tri_at.data(), O.mu, O.lambda};
+  }
+  HingeView hinges() const {
+    return {m_hinge_v.data(), m_hinge_slots.data(), m_hinge_c.data(), m_hinge_k.data(), m_layout.objective.quadratic_bending};
+  }
+  template <int K>
+  MGCLOTH_HOST_DEVICE static void gather(const double* x, const Index* v, double* xe) {
+    for (int a = 0; a < K; ++a)
+      for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * v[a] + k];
+  }
+
+  template <class View>
+  double element_energy(const View& E, Index count, const double* x) const {
+    return B::sum(count, MGCLOTH_LAMBDA(Index e) {
+      double xe[3 * View::K];
+      gather<View::K>(x, E.v + View::K * e, xe);
+      return E(e, xe, nullptr, nullptr);
+    });
+  }
+  /// One launch per element color: no two elements of a color share a vertex, so the additions do not race.
+  template <class View>
+  void element_gradient(const View& E, const std::vector<Index>& colors, const double* x, double* g) const {
+    for (size_t c = 0; c + 1 < colors.size(); ++c) {
+      const Index first = colors[c];
+      B::for_each(colors[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
+        constexpr int K = View::K;
+        const Index e = first + i;
+        double xe[3 * K], ge[3 * K];
+        gather<K>(x, E.v + K * e, xe);
+        E(e, xe, ge, nullptr);
+        for (int a = 0; a < K; ++a)
+          for (int k = 0; k < 3; ++k) g[3 * E.v[K * e + a] + k] += ge[3 * a + k];
+      });
+    }
+  }
+  template <class View>
+  void element_hessian(const View& E, const std::vector<Index>& colors, const double* x, double* A) const {
+    for (size_t c = 0; c + 1 < colors.size(); ++c) {
+      const Index first = colors[c];
+      B::for_each(colors[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
+        constexpr int K = View::K, N = 3 * K;
+        const Index e = first + i;
+        double xe[N], He[N * N];
+        gather<K>(x, E.v + K * e, xe);
+        E(e, xe, nullptr, He);
+        for (int a = 0; a < K; ++a)
+          for (int b = 0; b < K; ++b) {
+            double* blk = A + 9 * E.slots[K * K * e + K * a + b];
+            for (int r = 0; r < 3; ++r)
+              for (int q = 0; q < 3; ++q) blk[3 * r + q] += He[(3 * a + r) * N + 3 * b + q];
+          }
+      });
+    }
+  }
+
   double energy(const double* x) const {
     const PointTerms P = point_terms();
-    double e = B::sum(m_n, MGCLOTH_LAMBDA(Index i) { return point_element(P, i, x + 3 * i, nullptr, nullptr); });
     const ObjectiveLayout& O = m_layout.objective;
-    if (O.tris.size() > 0) {
-      const Index* tv = m_tri_v.data();
-      const double *dm = m_tri_dm.data(), *at = m_tri_at.data();
-      const double mu = O.mu, lambda = O.lambda;
-      e += B::sum(O.tris.size(), MGCLOTH_LAMBDA(Index t) {
-        double xe[9];
-        for (int a = 0; a < 3; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * tv[3 * t + a] + k];
-        return hd::stvk_triangle(xe, dm + 4 * t, at[t], mu, lambda, nullptr, nullptr, false);
-      });
-    }
-    if (O.hinges.size() > 0) {
-      const Index* hv = m_hinge_v.data();
-      const double *hc = m_hinge_c.data(), *hk = m_hinge_k.data();
-      const bool quadratic = O.quadratic_bending;
-      e += B::sum(O.hinges.size(), MGCLOTH_LAMBDA(Index h) {
-        double xe[12];
-        for (int a = 0; a < 4; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * hv[4 * h + a] + k];
-        return quadratic ? hd::quadratic_bending(xe, hk + 4 * h, hc[h], nullptr, nullptr)
-                         : hd::hinge_bending_psd(xe, hc[h], nullptr, nullptr);
-      });
-    }
-    return e;
+    return B::sum(m_n, MGCLOTH_LAMBDA(Index i) { return point_element(P, i, x + 3 * i, nullptr, nullptr); }) +
+           element_energy(triangles(), O.tris.size(), x) + element_energy(hinges(), O.hinges.size(), x);
   }
 
   void gradient(const double* x, double* g) const {
@@ -210,38 +264,8 @@ class Pipeline final : public DeviceFmg {
       for (int k = 0; k < 3; ++k) g[3 * i + k] = gi[k];
     });
     const ObjectiveLayout& O = m_layout.objective;
-    // One launch per element color: no two elements of a color share a vertex, so the additions do not race.
-    const Index* tv = m_tri_v.data();
-    const double *dm = m_tri_dm.data(), *at = m_tri_at.data();
-    const double mu = O.mu, lambda = O.lambda;
-    for (size_t c = 0; c + 1 < O.tris.color_offsets.size(); ++c) {
-      const Index first = O.tris.color_offsets[c];
-      B::for_each(O.tris.color_offsets[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
-        const Index t = first + i;
-        double xe[9], ge[9];
-        for (int a = 0; a < 3; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * tv[3 * t + a] + k];
-        hd::stvk_triangle(xe, dm + 4 * t, at[t], mu, lambda, ge, nullptr, false);
-        for (int a = 0; a < 3; ++a)
-          for (int k = 0; k < 3; ++k) g[3 * tv[3 * t + a] + k] += ge[3 * a + k];
-      });
-    }
-    const Index* hv = m_hinge_v.data();
-    const double *hc = m_hinge_c.data(), *hk = m_hinge_k.data();
-    const bool quadratic = O.quadratic_bending;
-    for (size_t c = 0; c + 1 < O.hinges.color_offsets.size(); ++c) {
-      const Index first = O.hinges.color_offsets[c];
-      B::for_each(O.hinges.color_offsets[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
-        const Index h = first + i;
-        double xe[12], ge[12];
-        for (int a = 0; a < 4; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * hv[4 * h + a] + k];
-        if (quadratic) hd::quadratic_bending(xe, hk + 4 * h, hc[h], ge, nullptr);
-        else hd::hinge_bending_psd(xe, hc[h], ge, nullptr);
-        for (int a = 0; a < 4; ++a)
-          for (int k = 0; k < 3; ++k) g[3 * hv[4 * h + a] + k] += ge[3 * a + k];
-      });
-    }
+    element_gradient(triangles(), O.tris.color_offsets, x, g);
+    element_gradient(hinges(), O.hinges.color_offsets, x, g);
   }
 
   /// The PSD-projected Hessian into level 0's blocks (the fixed pattern; element colors again keep it race-free).
@@ -253,45 +277,8 @@ class Pipeline final : public DeviceFmg {
     const Index* ds = m_diag_slots.data();
     B::for_each(m_n, MGCLOTH_LAMBDA(Index i) { point_element(P, i, x + 3 * i, nullptr, A + 9 * ds[i]); });
     const ObjectiveLayout& O = m_layout.objective;
-    const Index *tv = m_tri_v.data(), *ts = m_tri_slots.data();
-    const double *dm = m_tri_dm.data(), *at = m_tri_at.data();
-    const double mu = O.mu, lambda = O.lambda;
-    for (size_t c = 0; c + 1 < O.tris.color_offsets.size(); ++c) {
-      const Index first = O.tris.color_offsets[c];
-      B::for_each(O.tris.color_offsets[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
-        const Index t = first + i;
-        double xe[9], He[81];
-        for (int a = 0; a < 3; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * tv[3 * t + a] + k];
-        hd::stvk_triangle(xe, dm + 4 * t, at[t], mu, lambda, nullptr, He, true);
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b) {
-            double* blk = A + 9 * ts[9 * t + 3 * a + b];
-            for (int r = 0; r < 3; ++r)
-              for (int q = 0; q < 3; ++q) blk[3 * r + q] += He[(3 * a + r) * 9 + 3 * b + q];
-          }
-      });
-    }
-    const Index *hv = m_hinge_v.data(), *hs = m_hinge_slots.data();
-    const double *hc = m_hinge_c.data(), *hk = m_hinge_k.data();
-    const bool quadratic = O.quadratic_bending;
-    for (size_t c = 0; c + 1 < O.hinges.color_offsets.size(); ++c) {
-      const Index first = O.hinges.color_offsets[c];
-      B::for_each(O.hinges.color_offsets[c + 1] - first, MGCLOTH_LAMBDA(Index i) {
-        const Index h = first + i;
-        double xe[12], He[144];
-        for (int a = 0; a < 4; ++a)
-          for (int k = 0; k < 3; ++k) xe[3 * a + k] = x[3 * hv[4 * h + a] + k];
-        if (quadratic) hd::quadratic_bending(xe, hk + 4 * h, hc[h], nullptr, He);
-        else hd::hinge_bending_psd(xe, hc[h], nullptr, He);
-        for (int a = 0; a < 4; ++a)
-          for (int b = 0; b < 4; ++b) {
-            double* blk = A + 9 * hs[16 * h + 4 * a + b];
-            for (int r = 0; r < 3; ++r)
-              for (int q = 0; q < 3; ++q) blk[3 * r + q] += He[(3 * a + r) * 12 + 3 * b + q];
-          }
-      });
-    }
+    element_hessian(triangles(), O.tris.color_offsets, x, A);
+    element_hessian(hinges(), O.hinges.color_offsets, x, A);
   }
 
   /// Moves vertices inside obstacles onto their surfaces (§4.5); returns how many moved.
