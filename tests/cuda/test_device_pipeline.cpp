@@ -127,12 +127,13 @@ TEST(DevicePipeline, EnergyGradientAndHessianEqualTheCpuObjective) {
     f.cloth->objective.hessian(x, H, /*project_psd=*/true);
     p.hessian(xd.data());
     const auto& top = p.levels()[0];
+    const linalg::BlockMatrix3& pattern = p.layout().levels[0].pattern;
     std::vector<double> blocks;
     top.blocks.download(blocks);
     double err = 0.0, scale = 0.0;
     for (Index r = 0; r < top.n; ++r)
-      for (Index k = top.host_pattern.row_offsets()[r]; k < top.host_pattern.row_offsets()[r + 1]; ++k) {
-        const Index c = top.host_pattern.col_indices()[k];
+      for (Index k = pattern.row_offsets()[r]; k < pattern.row_offsets()[r + 1]; ++k) {
+        const Index c = pattern.col_indices()[k];
         const Mat3& ref = H.block(H.find(perm[static_cast<size_t>(r)], perm[static_cast<size_t>(c)]));
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j) {
@@ -162,13 +163,14 @@ TEST(DevicePipeline, GalerkinOperatorsAndSmoothersMatchTheCpuMultigrid) {
     linalg::BlockMatrix3 Ac;
     rap.compute(A, Ac);
     const auto& level = p.levels()[l + 1];
+    const linalg::BlockMatrix3& pattern = p.layout().levels[l + 1].pattern;
     const auto& perm = p.layout().levels[l + 1].perm;
     std::vector<double> blocks;
     level.blocks.download(blocks);
     double err = 0.0, scale = 0.0;
     for (Index r = 0; r < level.n; ++r)
-      for (Index k = level.host_pattern.row_offsets()[r]; k < level.host_pattern.row_offsets()[r + 1]; ++k) {
-        const Mat3& ref = Ac.block(Ac.find(perm[static_cast<size_t>(r)], perm[static_cast<size_t>(level.host_pattern.col_indices()[k])]));
+      for (Index k = pattern.row_offsets()[r]; k < pattern.row_offsets()[r + 1]; ++k) {
+        const Mat3& ref = Ac.block(Ac.find(perm[static_cast<size_t>(r)], perm[static_cast<size_t>(pattern.col_indices()[k])]));
         for (int i = 0; i < 9; ++i) {
           err = std::max(err, std::abs(blocks[9 * static_cast<size_t>(k) + static_cast<size_t>(i)] - ref(i / 3, i % 3)));
           scale = std::max(scale, std::abs(ref(i / 3, i % 3)));

@@ -23,26 +23,40 @@ sim::Scene shipped(const std::string& name, int vertices, const std::string& sol
   j["solver"] = {{"name", solver}, {"rel_grad", 1e-3}, {"max_iters", 500}, {"params", params}};
   return sim::parse_scene(j, path, fs::path(path).parent_path());
 }
+/// A step frozen after `steps` steps of Newton + CHOLMOD: its start state and its minimizer to 1e-10.
+struct FrozenStep {
+  VecX x_prev, v_prev, xstar;
+  int frame = 0;
+  long step = 0;
+  std::vector<std::pair<std::string, double>> terms;  ///< the minimizer's energy per term
+};
+FrozenStep frozen_step(const std::string& scene, int vertices, int substeps, int steps) {
+  sim::Simulator ref(shipped(scene, vertices, "newton-direct", substeps));
+  for (int k = 0; k < steps; ++k) ref.step();
+  FrozenStep f{ref.cloths()[0]->x(), ref.cloths()[0]->v(), VecX(), ref.frame(), ref.step_count(), {}};
+  auto problem = ref.prepare_problem(0, f.xstar);
+  solvers::Stop stop;
+  stop.rel_grad = 1e-10;
+  stop.max_iters = 300;
+  const auto rep = ref.solver(0).minimize(problem, f.xstar, stop, nullptr);
+  EXPECT_TRUE(rep.converged) << scene << ": " << rep.status << " after " << rep.iterations;
+  f.terms = problem.objective->term_values(f.xstar);
+  return f;
+}
 }  // namespace
 
 TEST(SolverScenes, FasAndEveryElasticSolverReachTheSameMinimizer) {
   // Step 3 of the hanging cloth, frozen; every solver of the elastic form from the same start to a tight tolerance.
   // Δt = 1/300 s keeps the step's objective convex (inertia dominates), so that its minimizer is unique: at 1/30 s
   // the falling cloth buckles and solvers may rightly land in different local minima.
-  sim::Simulator ref(shipped("hanging", 400, "newton-direct", 10));
-  ref.step();
-  ref.step();
-  const VecX x_prev = ref.cloths()[0]->x(), v_prev = ref.cloths()[0]->v();
-  VecX xstar;
-  auto problem = ref.prepare_problem(0, xstar);
+  const FrozenStep f = frozen_step("hanging", 400, 10, 2);
+  ASSERT_FALSE(HasFailure());
+  const VecX& xstar = f.xstar;
   solvers::Stop stop;
   stop.rel_grad = 1e-10;
-  stop.max_iters = 300;
-  const auto ref_rep = ref.solver(0).minimize(problem, xstar, stop, nullptr);
-  ASSERT_TRUE(ref_rep.converged) << ref_rep.status << " after " << ref_rep.iterations;
   for (const std::string name : {"fmg", "fas", "newton-mg", "newton-amg", "gs-chebyshev"}) {
     sim::Simulator s(shipped("hanging", 400, name, 10));
-    s.set_state(0, 2, {x_prev}, {v_prev});
+    s.set_state(0, 2, {f.x_prev}, {f.v_prev});
     VecX x;
     auto p = s.prepare_problem(0, x);
     EXPECT_EQ(p.level_objectives.empty(), std::string(name) != "fas") << name;
@@ -58,29 +72,23 @@ TEST(SolverScenes, TheFmgCudaPipelineReachesTheCpuMinimizerWithPinsAndContact) {
   // of the hanging cloth (pins) and of the sphere drape in contact, against Newton + CHOLMOD and the CPU FMG.
   for (const std::string scene : {"hanging", "drape_sphere"}) {
     const int substeps = scene == "hanging" ? 10 : 4;
-    sim::Simulator ref(shipped(scene, 500, "newton-direct", substeps));
-    for (int k = 0; k < (scene == "hanging" ? 2 : 16); ++k) ref.step();
-    const VecX x_prev = ref.cloths()[0]->x(), v_prev = ref.cloths()[0]->v();
-    VecX xstar;
-    auto problem = ref.prepare_problem(0, xstar);
-    solvers::Stop stop;
-    stop.rel_grad = 1e-10;
-    stop.max_iters = 300;
-    ASSERT_TRUE(ref.solver(0).minimize(problem, xstar, stop, nullptr).converged) << scene;
+    const FrozenStep f = frozen_step(scene, 500, substeps, scene == "hanging" ? 2 : 16);
+    ASSERT_FALSE(HasFailure());
     if (scene == "drape_sphere") {
-      const auto values = problem.objective->term_values(xstar);
-      ASSERT_GT(values.back().second, 0.0) << "the drape's step must be in contact";
+      ASSERT_GT(f.terms.back().second, 0.0) << "the drape's step must be in contact";
     }
     for (const std::string name : {"fmg", "fmg-cuda"}) {
       const Json params = name == "fmg-cuda" ? Json{{"backend", "host"}} : Json::object();
       sim::Simulator s(shipped(scene, 500, name, substeps, params));
-      s.set_state(ref.frame(), ref.step_count(), {x_prev}, {v_prev});
+      s.set_state(f.frame, f.step, {f.x_prev}, {f.v_prev});
       VecX x;
       auto p = s.prepare_problem(0, x);
+      solvers::Stop stop;
+      stop.rel_grad = 1e-10;
       stop.max_iters = 500;
       const auto rep = s.solver(0).minimize(p, x, stop, nullptr);
       EXPECT_TRUE(rep.converged) << scene << " " << name << ": " << rep.status << " after " << rep.iterations;
-      EXPECT_LT((x - xstar).norm(), 1e-5 * xstar.norm()) << scene << " " << name;
+      EXPECT_LT((x - f.xstar).norm(), 1e-5 * f.xstar.norm()) << scene << " " << name;
     }
   }
 }

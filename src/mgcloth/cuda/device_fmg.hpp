@@ -16,7 +16,6 @@ struct FmgSettings {
   int pre_smooth = 3, post_smooth = 3;
   bool chebyshev = true;        ///< Chebyshev-accelerated symmetric Gauss-Seidel smoothing
   int matrix_update = 1;        ///< 0 every direction, 1 every cycle, 2 once per step (solvers::MatrixUpdate order)
-  double refresh_below = 0.25;  ///< a step below this fraction of the model step refreshes the matrix
   double armijo = 1e-4, shrink = 0.5;
   int max_line_search_steps = 30;
   bool momentum = true;

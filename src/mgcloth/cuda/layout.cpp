@@ -118,7 +118,6 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
   const LevelLayout& top = L.levels[0];
   O.n = top.n;
   const std::vector<Index> inv = inverse(top.perm);
-  for (Index r = 0; r < O.n; ++r) O.diag_slots.push_back(top.pattern.diagonal(r));
   const auto once = [](bool& seen, const std::string& name) {
     if (seen) throw InputError(fmt::format("fmg-cuda: the objective has two \"{}\" terms; the device pipeline takes one", name));
     seen = true;
@@ -205,7 +204,7 @@ StepData step_data(const physics::Objective& objective, const Layout& layout) {
         s.targets.insert(s.targets.end(), {target.x(), target.y(), target.z()});
       }
     } else if (const auto* c = dynamic_cast<const physics::ObstacleContact*>(t)) {
-      for (size_t o = 0; o < c->obstacles().size(); ++o) s.obstacles.push_back(c->obstacles()[o].data(c->poses()[o]));
+      s.obstacles = c->obstacle_data();
     }
   }
   return s;

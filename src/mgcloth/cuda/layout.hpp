@@ -65,7 +65,6 @@ struct ObjectiveLayout {
   // Obstacle contact: k_i = stiffness · A_i per vertex (empty: no contact term), thickness d.
   std::vector<double> contact_k;
   double thickness = 0.0;
-  std::vector<Index> diag_slots;  ///< the diagonal block of every vertex in the level-0 pattern
 };
 
 /// What changes from one time step to the next: the inertial prediction, the pin targets and the obstacle poses.

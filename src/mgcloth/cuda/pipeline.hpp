@@ -45,7 +45,6 @@ class Pipeline final : public DeviceFmg {
     Buf<double> b, x, r, prev, cur;  ///< V-cycle vectors
     Buf<unsigned char> mask;
     double rho = 0.0;                ///< Chebyshev: spectral radius of one symmetric sweep (estimated once)
-    linalg::BlockMatrix3 host_pattern;
   };
 
   void build(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations) {
@@ -61,7 +60,6 @@ class Pipeline final : public DeviceFmg {
       Level& L = m_levels[l];
       L.n = src.n;
       L.nb = src.pattern.num_blocks();
-      L.host_pattern = src.pattern;
       L.row_offsets.upload(src.pattern.row_offsets());
       L.cols.upload(src.pattern.col_indices());
       std::vector<Index> diag(static_cast<size_t>(L.n));
@@ -96,7 +94,6 @@ class Pipeline final : public DeviceFmg {
     m_pin_off.upload(O.pin_offsets);
     m_pin_k.upload(O.pin_k);
     m_contact_k.upload(O.contact_k);
-    m_diag_slots.upload(O.diag_slots);
     const size_t n3 = 3 * static_cast<size_t>(m_n);
     for (auto* v : {&m_x, &m_g, &m_r, &m_d, &m_Ad, &m_p, &m_Ap, &m_s_vec, &m_As, &m_trial, &m_g_trial, &m_y})
       v->resize(n3);
@@ -106,10 +103,9 @@ class Pipeline final : public DeviceFmg {
       m_dense.resize(static_cast<size_t>(m_coarse_dense_n) * static_cast<size_t>(m_coarse_dense_n));
       m_cholesky = std::make_unique<typename B::DenseCholesky>();
     } else {
-      m_coarse_host = C.host_pattern;
+      m_coarse_host = m_layout.levels.back().pattern;
     }
-    m_have_matrix = false;
-    for (auto& L : m_levels) L.rho = 0.0;
+    m_beta = 1.0;
     m_vcycle_graph.reset();
   }
 
@@ -274,7 +270,7 @@ class Pipeline final : public DeviceFmg {
     double* A = L.blocks.data();
     B::for_each(9 * L.nb, MGCLOTH_LAMBDA(Index k) { A[k] = 0.0; });
     const PointTerms P = point_terms();
-    const Index* ds = m_diag_slots.data();
+    const Index* ds = L.diag.data();  // level 0's diagonal blocks
     B::for_each(m_n, MGCLOTH_LAMBDA(Index i) { point_element(P, i, x + 3 * i, nullptr, A + 9 * ds[i]); });
     const ObjectiveLayout& O = m_layout.objective;
     element_hessian(triangles(), O.tris.color_offsets, x, A);
@@ -410,7 +406,6 @@ class Pipeline final : public DeviceFmg {
         for (int q = 0; q < 9; ++q) Ac[9 * k + q] = s[q];
       });
     }
-    m_timer_galerkin_mark = true;
     for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
       Level& L = m_levels[l];
       const Index* diag = L.diag.data();
@@ -509,7 +504,6 @@ class Pipeline final : public DeviceFmg {
     }
     Level& C = m_levels[l + 1];
     double *b = L.b.data(), *x = L.x.data(), *r = L.r.data();
-    const Index n3 = 3 * L.n;
     const unsigned char* mask = nullptr;
     if (m_s.adaptive_threshold > 0.0) {
       if (!x_zero) residual(L, b, x, r);
@@ -559,7 +553,6 @@ class Pipeline final : public DeviceFmg {
     }
     profiled(m_prof.smoothing, [&] { smooth(L, b, x, m_s.post_smooth, mask); });
     m_prof.smoother_bytes += sweep_bytes(L) * 2.0 * m_s.post_smooth;
-    (void)n3;
   }
 
   /// The least memory traffic of one forward (or backward) Gauss-Seidel pass over level L: every block, column
@@ -600,7 +593,7 @@ class Pipeline final : public DeviceFmg {
   Index m_n = 0;
   std::vector<Level> m_levels;
   Buf<double> m_mass, m_tri_dm, m_tri_at, m_hinge_c, m_hinge_k, m_pin_k, m_contact_k, m_y, m_pin_targets;
-  Buf<Index> m_tri_v, m_tri_slots, m_hinge_v, m_hinge_slots, m_pin_off, m_diag_slots;
+  Buf<Index> m_tri_v, m_tri_slots, m_hinge_v, m_hinge_slots, m_pin_off;
   Buf<hd::ObstacleData> m_obstacles;
   Index m_num_obstacles = 0;
   double m_inv_h2 = 0.0;
@@ -610,10 +603,8 @@ class Pipeline final : public DeviceFmg {
   std::unique_ptr<typename B::DenseCholesky> m_cholesky;
   linalg::BlockMatrix3 m_coarse_host;
   linalg::CholmodSolver m_coarse_solver;
-  bool m_have_matrix = false;
-  bool m_timer_galerkin_mark = false;
   double m_rows_active = 0.0, m_rows_total = 0.0;
-  std::vector<double> m_beta;
+  double m_beta = 1.0;  ///< accepted step / model step of the last direction, to start the next line search (§4.2.3)
   Profile m_prof;
   typename B::Graph m_vcycle_graph;
 };
@@ -629,7 +620,6 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
   if (m_objective != &objective || m_prolongations != prolongations) {
     Timer t;
     build(objective, prolongations);
-    m_beta.assign(1, 1.0);
     ms.setup = t.ms();
   }
   if (x_host.size() != 3 * m_n)
@@ -648,7 +638,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
          *Ap = m_Ap.data(), *sv = m_s_vec.data(), *As = m_As.data(), *trial = m_trial.data(),
          *g_trial = m_g_trial.data();
   Level& top = m_levels[0];
-  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, refreshes = 0, graph_launches = 0;
+  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, graph_launches = 0;
   // Graphs hold only device work: not with the host coarse solve (copies), the adaptive mask (reductions) or the
   // profile's synchronizations.
   const bool use_graphs = m_s.graphs && m_s.coarse_solve == "device" && !(m_s.adaptive_threshold > 0.0) && !m_s.profile;
@@ -686,19 +676,18 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
   out.target = target;
   if (want_trace) out.trace.push_back({0, e, gnorm, timer.ms(), 0.0});
 
-  bool have_s = false, as_stale = false, model_poor = false;
+  bool have_s = false, as_stale = false;
   const auto update_matrix = [&] {
     timed(ms.assembly, [&] { hessian(x); });
     timed(ms.galerkin, [&] { update_hierarchy(); });
     as_stale = true;
-    m_beta.assign(1, 1.0);
-    m_have_matrix = true;
+    m_beta = 1.0;  // a fresh model is trusted again
     ++matrix_updates;
   };
   // After x changed: projection, then the new residual (and the energy when the projection moved x).
-  const auto refresh = [&](double e_new) {
+  const auto refresh = [&](bool energy_known, double e_new) {
     const Index moved = do_project ? project(x) : 0;
-    e = moved == 0 ? e_new : evaluate(x);
+    e = energy_known && moved == 0 ? e_new : evaluate(x);
     refresh_gradient();
   };
   double last_alpha = 0.0;
@@ -776,10 +765,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
       have_s = true;
       copy(trial, x, n3);
       last_alpha = 1.0;
-      const Index moved = do_project ? project(x) : 0;
-      e = evaluate(x);
-      (void)moved;
-      refresh_gradient();
+      refresh(false, 0.0);
       return true;
     };
     const bool in_round_off = -p_slope < 1e-13 * std::max(1.0, std::abs(e));
@@ -790,7 +776,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     }
     // Backtracking from the model step scaled by what was needed last time (§4.2.3), with safeguarded quadratic
     // interpolation; trial points are made feasible first (§4.5).
-    double alpha = m_beta[0], et = 0.0;
+    double alpha = m_beta, et = 0.0;
     bool ok = false;
     int tries = 0;
     for (; tries < m_s.max_line_search_steps; ++tries) {
@@ -809,13 +795,12 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
       alpha = next;
     }
     if (!ok) {
-      m_beta[0] = std::max(1e-3, 0.5 * m_beta[0]);
+      m_beta = std::max(1e-3, 0.5 * m_beta);
       if (-p_slope < 1e-9 * std::max(1.0, std::abs(e)) && accept_by_gradient()) return true;
       ++rejected;
       return false;
     }
-    if (alpha < m_s.refresh_below) model_poor = true;
-    m_beta[0] = std::min(1.0, tries == 0 ? 2.0 * alpha : alpha);
+    m_beta = std::min(1.0, tries == 0 ? 2.0 * alpha : alpha);
     const double a = alpha;
     B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
       sv[i] = a * p[i];
@@ -824,7 +809,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     });
     have_s = true;
     last_alpha = alpha;
-    refresh(et);
+    refresh(true, et);
     return true;
   };
 
@@ -845,10 +830,9 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
       out.status = "interrupted";
       break;
     }
-    if (!m_have_matrix || !per_solve || k == 0 || force_update) update_matrix();
+    if (!per_solve || k == 0 || force_update) update_matrix();
     const bool fresh_matrix = !per_solve || k == 0 || force_update;
     force_update = false;
-    model_poor = false;
     const bool moved = direction();
     check(k + 1);
     if (gnorm <= target) {
@@ -891,7 +875,6 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
                   {"rejected_directions", static_cast<double>(rejected)},
                   {"energy_evals", static_cast<double>(energy_evals)},
                   {"matrix_updates", static_cast<double>(matrix_updates)},
-                  {"refreshes", static_cast<double>(refreshes)},
                   {"skipped_fraction", relax},
                   {"setup_ms", ms.setup},
                   {"assembly_ms", ms.assembly},

@@ -15,7 +15,11 @@ ObstaclePenalty::ObstaclePenalty(VecX area, std::vector<geometry::Obstacle> obst
 
 void ObstaclePenalty::set_time(double t) {
   m_poses.resize(m_obstacles.size());
-  for (size_t o = 0; o < m_obstacles.size(); ++o) m_poses[o] = m_obstacles[o].motion->pose(t);
+  m_data.resize(m_obstacles.size());
+  for (size_t o = 0; o < m_obstacles.size(); ++o) {
+    m_poses[o] = m_obstacles[o].motion->pose(t);
+    m_data[o] = m_obstacles[o].data(m_poses[o]);
+  }
 }
 
 ObstacleContact::ObstacleContact(VecX area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params)
@@ -40,8 +44,8 @@ double ObstacleContact::element(Index i, const Local& xe, Local* g, LocalHessian
 
 void ObstacleContact::element_psd_hessian(Index i, const Local& xe, LocalHessian& H) const {
   H.setZero();
-  for (size_t o = 0; o < obstacles().size(); ++o)
-    hd::contact_psd(obstacles()[o].data(poses()[o]), xe.data(), vertex_stiffness(i), params().thickness, nullptr, H.data());
+  for (const hd::ObstacleData& o : obstacle_data())
+    hd::contact_psd(o, xe.data(), vertex_stiffness(i), params().thickness, nullptr, H.data());
 }
 
 Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& obstacles,

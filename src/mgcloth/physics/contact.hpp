@@ -18,6 +18,8 @@ class ObstaclePenalty : public ElementTerm<1> {
   void set_time(double t);
   const std::vector<geometry::Obstacle>& obstacles() const { return m_obstacles; }
   const std::vector<geometry::Pose>& poses() const { return m_poses; }
+  /// The obstacles at their poses as plain data for the shared kernels (hd::contact_psd), set with the poses.
+  const std::vector<hd::ObstacleData>& obstacle_data() const { return m_data; }
   const ContactParams& params() const { return m_params; }
   /// k_i = stiffness · A_i.
   double vertex_stiffness(Index i) const { return m_params.stiffness * m_area[i]; }
@@ -32,6 +34,7 @@ class ObstaclePenalty : public ElementTerm<1> {
   VecX m_area;
   std::vector<geometry::Obstacle> m_obstacles;
   std::vector<geometry::Pose> m_poses;
+  std::vector<hd::ObstacleData> m_data;
   ContactParams m_params;
 };
 
