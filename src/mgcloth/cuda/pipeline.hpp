@@ -4,6 +4,7 @@
 // B::sum(n, f) reduces, B::Buffer<T> holds device memory. Kernels are MGCLOTH_HOST_DEVICE lambdas that capture raw
 // pointers by value, never `this` (a host pointer on the device). Every vector is xyz-interleaved in the level's
 // device numbering (layout.hpp), every matrix a BSR of row-major 3x3 blocks.
+#include <mgcloth/core/backtracking.hpp>
 #include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/cuda/device_fmg.hpp>
@@ -787,12 +788,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
         ok = true;
         break;
       }
-      double next = m_s.shrink * alpha;
-      if (std::isfinite(et)) {
-        const double curvature = et - e - p_slope * alpha;
-        if (curvature > 0.0) next = std::clamp(-p_slope * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
-      }
-      alpha = next;
+      alpha = backtracking_step(alpha, et, e, p_slope, m_s.shrink);
     }
     if (!ok) {
       m_beta = std::max(1e-3, 0.5 * m_beta);

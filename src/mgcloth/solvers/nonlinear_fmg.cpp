@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/backtracking.hpp>
 #include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/timer.hpp>
@@ -273,12 +274,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
         ok = true;
         break;
       }
-      double next = lp.shrink * alpha;
-      if (std::isfinite(et)) {
-        const double curvature = et - e - p_slope * alpha;
-        if (curvature > 0.0) next = std::clamp(-p_slope * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
-      }
-      alpha = next;
+      alpha = backtracking_step(alpha, et, e, p_slope, lp.shrink);
     }
     if (!ok) {
       m_beta[st.level] = std::max(1e-3, 0.5 * m_beta[st.level]);
