@@ -27,14 +27,18 @@ struct Fixture {
   std::vector<const hierarchy::TransferTable*> tables;
 };
 
-Fixture make(Index vertices, bool contact) {
+/// `friction` > 0: the sphere also moves and spins, so that the friction filter has a surface velocity to match.
+Fixture make(Index vertices, bool contact, double friction = 0.0) {
   Fixture f;
   f.cloth = test::hanging(vertices, 1.0 / 30.0);
   if (contact) {
     std::vector<geometry::Obstacle> obstacles(1);
     obstacles[0].shape = std::make_shared<geometry::Sphere>(0.1);
+    const Vec3 linear = friction > 0.0 ? Vec3(0.3, -0.2, 0.1) : Vec3::Zero();
+    const Vec3 angular = friction > 0.0 ? Vec3(1.0, 4.0, -2.0) : Vec3::Zero();
     obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(
-        geometry::Pose{Eigen::Quaterniond::Identity(), Vec3(0.2, 0.08, -0.2)}, Vec3::Zero(), Vec3::Zero());
+        geometry::Pose{Eigen::Quaterniond::Identity(), Vec3(0.2, 0.08, -0.2)}, linear, angular);
+    obstacles[0].friction = friction;
     physics::ContactParams cp;
     cp.thickness = 0.01;
     const Index n = f.cloth->mesh.num_vertices();
@@ -239,13 +243,44 @@ TEST(DevicePipeline, ProjectionMovesVerticesOutOfTheObstacle) {
   VecX x_cpu = x;
   const auto* contact = dynamic_cast<const physics::ObstacleContact*>(f.cloth->objective.terms().back().get());
   ASSERT_NE(contact, nullptr);
-  const Index moved_cpu = physics::project_out_of_obstacles(x_cpu, contact->obstacles(), contact->poses());
+  const Index moved_cpu = physics::project_out_of_obstacles(x_cpu, contact->obstacle_data());
   std::vector<double> xd = device_x(p, x);
   EXPECT_GT(moved_cpu, 0);
   EXPECT_EQ(p.project(xd.data()), moved_cpu);
   VecX x_dev;
   cuda::from_device_order(p.layout(), xd, x_dev);
   EXPECT_LE((x_dev - x_cpu).lpNorm<Eigen::Infinity>(), 1e-15);
+}
+
+TEST(DevicePipeline, TheStepEndsOnTheDeviceAsOnTheCpuWithProjectionVelocityAndFriction) {
+  const Fixture f = make(500, true, 0.6);
+  const double h = 1.0 / 30.0;
+  // A solution that the sphere overlaps (so projection and both friction regimes occur) from a few FMG cycles.
+  VecX x = perturbed(f, 7);
+  for (Index i = 0; i < x.size() / 3; ++i)
+    x[3 * i + 1] += 0.12 * std::exp(-50.0 * (Vec3(x[3 * i], 0.0, x[3 * i + 2]) - Vec3(0.2, 0.0, -0.2)).squaredNorm());
+  const VecX x_old = f.cloth->x0;
+  auto device = cuda::make_device_fmg(cuda::Backend::Host, {});
+  cuda::Limits limits;
+  limits.max_iters = 2;
+  device->minimize(f.cloth->objective, f.tables, false, x, limits, false);
+  VecX x_dev, v_dev;
+  device->finish_step(x_old, h, x_dev, v_dev);
+
+  const auto& terms = f.cloth->objective.terms();
+  const auto* contact = dynamic_cast<const physics::ObstacleContact*>(terms.back().get());
+  const auto* inertia = dynamic_cast<const physics::InertiaTerm*>(terms.front().get());
+  ASSERT_NE(contact, nullptr);
+  ASSERT_NE(inertia, nullptr);
+  VecX x_cpu = x, pushed;
+  const Index moved = physics::project_out_of_obstacles(x_cpu, contact->obstacle_data(), &pushed);
+  VecX v_cpu = (x_cpu - x_old) / h;
+  const VecX v_unfiltered = v_cpu;
+  physics::apply_friction(x_cpu, v_cpu, inertia->mass(), *contact, h, pushed);
+  EXPECT_GT(moved, 0);
+  EXPECT_GT((v_cpu - v_unfiltered).norm(), 0.1 * v_unfiltered.norm()) << "friction should change the velocities";
+  EXPECT_LE((x_dev - x_cpu).lpNorm<Eigen::Infinity>(), 1e-14);
+  EXPECT_LE((v_dev - v_cpu).lpNorm<Eigen::Infinity>(), 1e-10 * v_cpu.lpNorm<Eigen::Infinity>());
 }
 
 TEST(DevicePipeline, TermsWithoutADeviceImplementationAreRejectedByName) {
@@ -286,6 +321,15 @@ TEST(DevicePipeline, TheCudaBackendRunsWhereAGpuIsPresentAndSaysWhyNotElsewhere)
   EXPECT_EQ(b.status, "converged");
   EXPECT_LE((x_gpu - x_host).norm(), 1e-5 * x_host.norm());
   EXPECT_NEAR(a.energy, b.energy, 1e-9 * std::abs(b.energy));
+  // The step's end (projection, velocity, friction) on each.
+  const Fixture moving = make(2000, true, 0.6);
+  VecX xg = moving.cloth->x0, xh = moving.cloth->x0, xg_end, vg, xh_end, vh;
+  gpu->minimize(moving.cloth->objective, moving.tables, true, xg, limits, false);
+  host->minimize(moving.cloth->objective, moving.tables, true, xh, limits, false);
+  gpu->finish_step(moving.cloth->x0, 1.0 / 30.0, xg_end, vg);
+  host->finish_step(moving.cloth->x0, 1.0 / 30.0, xh_end, vh);
+  EXPECT_LE((xg_end - xh_end).norm(), 1e-5 * xh_end.norm());
+  EXPECT_LE((vg - vh).norm(), 1e-4 * std::max(1.0, vh.norm()));
 }
 
 TEST(DevicePipeline, AReplayedVCycleGraphGivesTheSameSolveAsDirectLaunches) {

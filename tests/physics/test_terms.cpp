@@ -256,14 +256,46 @@ TEST(Terms, ProjectionLeavesNoVertexInside) {
   std::vector<geometry::Obstacle> obstacles(1);
   obstacles[0].shape = std::make_shared<geometry::Sphere>(0.5);
   obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(geometry::Pose{}, Vec3::Zero(), Vec3::Zero());
-  std::vector<geometry::Pose> poses{geometry::Pose{}};
   VecX x(9);
   x << 0.1, 0.0, 0.0, 0.0, 0.0, 2.0, 0.3, -0.2, 0.1;
   VecX pushed;
-  EXPECT_EQ(project_out_of_obstacles(x, obstacles, poses, &pushed), 2);
+  EXPECT_EQ(project_out_of_obstacles(x, {obstacles[0].data(0.0)}, &pushed), 2);
   for (int i = 0; i < 3; ++i) EXPECT_GE(x.segment<3>(3 * i).norm(), 0.5 - 1e-12);
   EXPECT_NEAR(x[5], 2.0, 0.0);
   EXPECT_NEAR(pushed[0], 0.4, 1e-12);
+}
+
+TEST(Terms, FrictionFilterRemovesInwardVelocityAndObeysCoulomb) {
+  const hd::V3 n{0.0, 0.0, 1.0}, v_obs{1.0, 0.0, 0.0};
+  // Sliding: relative tangential speed 2 loses μ·Δv_n = 0.5·1; the inward normal velocity is removed.
+  double v[3] = {3.0, 0.0, -0.4};
+  hd::filter_velocity(v, v_obs, n, 1.0, 0.5);
+  EXPECT_NEAR(v[0], 1.0 + 1.5, 1e-15);
+  EXPECT_NEAR(v[1], 0.0, 1e-15);
+  EXPECT_NEAR(v[2], 0.0, 1e-15);
+  // Sticking: μ·Δv_n above the slip speed leaves the vertex moving with the surface; outward velocity is kept.
+  double w[3] = {1.2, -0.1, 0.3};
+  hd::filter_velocity(w, v_obs, n, 2.0, 0.5);
+  EXPECT_NEAR(w[0], 1.0, 1e-15);
+  EXPECT_NEAR(w[1], 0.0, 1e-15);
+  EXPECT_NEAR(w[2], 0.3, 1e-15);
+  // Frictionless: the tangential velocity passes unchanged.
+  double u[3] = {3.0, 2.0, -1.0};
+  hd::filter_velocity(u, v_obs, n, 5.0, 0.0);
+  EXPECT_NEAR(u[0], 3.0, 1e-15);
+  EXPECT_NEAR(u[1], 2.0, 1e-15);
+  EXPECT_NEAR(u[2], 0.0, 1e-15);
+  // The surface velocity of a spinning, moving body: v + ω × (x − c).
+  geometry::Obstacle o;
+  o.shape = std::make_shared<geometry::Sphere>(0.5);
+  o.motion = std::make_shared<geometry::ConstantVelocityMotion>(geometry::Pose{Eigen::Quaterniond::Identity(), Vec3(1, 0, 0)},
+                                                                Vec3(0.1, 0.2, 0.3), Vec3(0.0, 0.0, 2.0));
+  const double t = 0.5;
+  const hd::V3 pv = hd::point_velocity(o.data(t), hd::V3{1.6, 0.0, 0.0});
+  const Vec3 expected = o.motion->point_velocity(t, Vec3(1.6, 0.0, 0.0));
+  EXPECT_NEAR(pv.x, expected.x(), 1e-14);
+  EXPECT_NEAR(pv.y, expected.y(), 1e-14);
+  EXPECT_NEAR(pv.z, expected.z(), 1e-14);
 }
 
 TEST(Objective, SumsTermsAndAssemblesInParallelDeterministically) {

@@ -32,10 +32,10 @@ struct PdCloth {
     solvers::Problem problem;
     problem.objective = &body->objective();
     if (const auto* c = body->contact())
-      problem.project = [c](VecX& y) { return physics::project_out_of_obstacles(y, c->obstacles(), c->poses()); };
+      problem.project = [c](VecX& y) { return physics::project_out_of_obstacles(y, c->obstacle_data()); };
     const auto report = newton->minimize(problem, x, scene.solver.stop, nullptr);
     const VecX solved = x;
-    body->finish_step(x, t + h, h);
+    body->finish_step(x, h);
     projected = ((x - solved).array() != 0.0).count();
     t += h;
     return report;

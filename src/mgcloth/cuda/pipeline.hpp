@@ -282,18 +282,47 @@ class Pipeline final : public DeviceFmg {
   Index project(double* x) const {
     if (m_num_obstacles == 0) return 0;
     const hd::ObstacleData* obs = m_obstacles.data();
-    const Index no = m_num_obstacles;
-    return static_cast<Index>(B::sum(m_n, MGCLOTH_LAMBDA(Index i) {
-      bool moved = false;
-      // A vertex may touch several obstacles; a few passes settle it where their surfaces meet.
-      for (int pass = 0; pass < 4; ++pass) {
-        bool inside = false;
-        for (Index o = 0; o < no; ++o)
-          if (hd::project_out(obs[o], x + 3 * i) > 0.0) inside = moved = true;
-        if (!inside) break;
+    const int no = static_cast<int>(m_num_obstacles);
+    return static_cast<Index>(
+        B::sum(m_n, MGCLOTH_LAMBDA(Index i) { return hd::project_vertex(obs, no, x + 3 * i) > 0.0 ? 1.0 : 0.0; }));
+  }
+
+  void finish_step(const VecX& x_old, double h, VecX& x_host, VecX& v_host) override {
+    if (!m_objective) fail("fmg-cuda: finish_step() before minimize()");
+    if (x_old.size() != 3 * m_n || !(h > 0.0))
+      fail("fmg-cuda: finish_step() needs the step's start (" + std::to_string(3 * m_n) + " entries) and h > 0");
+    {
+      std::vector<double> xd;
+      to_device_order(m_layout, x_old, xd);
+      m_trial.upload(xd);  // free between solves
+    }
+    const PointTerms P = point_terms();
+    double *x = m_x.data(), *v = m_g_trial.data();
+    const double* x0 = m_trial.data();
+    const int no = static_cast<int>(m_num_obstacles);
+    // One pass per vertex: projection, velocity, then each obstacle's friction filter, as on the CPU
+    // (physics::project_out_of_obstacles, physics::apply_friction) with the cubic penalty's normal force.
+    B::for_each(m_n, MGCLOTH_LAMBDA(Index i) {
+      double* xi = x + 3 * i;
+      double* vi = v + 3 * i;
+      const double pushed = P.contact ? hd::project_vertex(P.obstacles, no, xi) : 0.0;
+      for (int k = 0; k < 3; ++k) vi[k] = (xi[k] - x0[3 * i + k]) / h;
+      if (!P.contact) return;
+      for (int o = 0; o < no; ++o) {
+        hd::V3 normal;
+        const double gap = hd::contact_gap(P.obstacles[o], xi, P.thickness, normal);
+        if (gap <= 0.0) continue;
+        const double force = hd::contact_normal_force(P.contact_k[i], gap, P.thickness);
+        const double dvn = h * force / P.mass[i] + pushed / h;
+        hd::filter_velocity(vi, hd::point_velocity(P.obstacles[o], hd::load3(xi)), normal, dvn,
+                            P.obstacles[o].friction);
       }
-      return moved ? 1.0 : 0.0;
-    }));
+    });
+    std::vector<double> buf;
+    m_x.download(buf);
+    from_device_order(m_layout, buf, x_host);
+    m_g_trial.download(buf);
+    from_device_order(m_layout, buf, v_host);
   }
 
   // ---- Linear algebra ------------------------------------------------------------------------------------------

@@ -16,8 +16,11 @@ SdfSample Obstacle::sdf(const Vec3& p, const Pose& pose) const {
   return s;
 }
 
-hd::ObstacleData Obstacle::data(const Pose& pose) const {
+hd::ObstacleData Obstacle::data(double t) const {
   if (!shape) throw_error("obstacle '{}': has no shape", name);
+  const Pose pose = motion ? motion->pose(t) : Pose{};
+  Vec3 linear = Vec3::Zero(), angular = Vec3::Zero();
+  if (motion) motion->velocity(t, linear, angular);
   hd::ObstacleData o;
   o.kind = shape->kind();
   const auto p = shape->params();
@@ -25,6 +28,8 @@ hd::ObstacleData Obstacle::data(const Pose& pose) const {
   for (int i = 0; i < 3; ++i) {
     o.param[i] = p[static_cast<size_t>(i)];
     o.t[i] = pose.translation[i];
+    o.v[i] = linear[i];
+    o.w[i] = angular[i];
     for (int j = 0; j < 3; ++j) o.R[3 * i + j] = R(i, j);
   }
   o.friction = friction;

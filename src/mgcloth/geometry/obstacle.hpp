@@ -22,8 +22,9 @@ struct Obstacle {
   SdfSample sdf(const Vec3& p, const Pose& pose) const;
   /// phi alone at a pose (no derivatives), the cheap test before sdf().
   double distance(const Vec3& p, const Pose& pose) const { return shape->distance(pose.to_local(p)); }
-  /// The obstacle at a pose as plain data for the shared kernels (hd::contact_psd, hd::project_out).
-  hd::ObstacleData data(const Pose& pose) const;
+  /// The obstacle at time t (pose and velocity) as plain data for the shared kernels (hd::contact_psd,
+  /// hd::project_out, hd::filter_velocity).
+  hd::ObstacleData data(double t) const;
 };
 
 }  // namespace mgcloth::geometry

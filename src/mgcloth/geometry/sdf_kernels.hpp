@@ -111,6 +111,10 @@ struct ObstacleData {
   double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   double t[3] = {0.0, 0.0, 0.0};
   double friction = 0.0;
+  /// Linear velocity of the body's origin t and angular velocity (world frame), at the pose's time: the velocity
+  /// of the surface that friction measures slip against.
+  double v[3] = {0.0, 0.0, 0.0};
+  double w[3] = {0.0, 0.0, 0.0};
 };
 
 MGCLOTH_HOST_DEVICE inline V3 to_local(const ObstacleData& o, const V3& x) {
@@ -132,6 +136,57 @@ MGCLOTH_HOST_DEVICE inline double project_out(const ObstacleData& o, double* x) 
   if (phi >= 0.0) return 0.0;
   store3(x, load3(x) - phi * rotate(o, gl));
   return -phi;
+}
+
+/// Moves vertex x out of every obstacle it lies inside; a vertex may touch several, so a few passes settle it
+/// where their surfaces meet. Returns the total distance moved (0: it was outside all of them).
+MGCLOTH_HOST_DEVICE inline double project_vertex(const ObstacleData* obstacles, int count, double* x) {
+  double pushed = 0.0;
+  for (int pass = 0; pass < 4; ++pass) {
+    bool inside = false;
+    for (int o = 0; o < count; ++o) {
+      const double moved = project_out(obstacles[o], x);
+      if (moved > 0.0) {
+        inside = true;
+        pushed += moved;
+      }
+    }
+    if (!inside) break;
+  }
+  return pushed;
+}
+
+/// Velocity of the body's material point at world position x: v + w × (x − t).
+MGCLOTH_HOST_DEVICE inline V3 point_velocity(const ObstacleData& o, const V3& x) {
+  return load3(o.v) + cross(load3(o.w), x - load3(o.t));
+}
+
+/// Depth gap = d − φ of x in the contact layer of thickness d (≤ 0: outside it), and the world normal ∇φ there.
+MGCLOTH_HOST_DEVICE inline double contact_gap(const ObstacleData& o, const double* x, double d, V3& normal) {
+  const V3 q = to_local(o, load3(x));
+  if (d - sdf_distance(o.kind, o.param, q) <= 0.0) return 0.0;
+  V3 gl;
+  const double gap = d - sdf(o.kind, o.param, q, gl, nullptr);
+  if (gap <= 0.0) return 0.0;
+  normal = rotate(o, gl);
+  return gap;
+}
+
+/// Coulomb friction by velocity filtering (Bridson et al. 2002 §7.2) of vertex velocity v against a surface with
+/// normal n moving at v_obs: the normal part of the relative velocity loses any component into the obstacle, the
+/// tangential part shrinks by μ·Δv_n (the normal velocity change the contact produced this step) and is clamped
+/// at zero (static friction).
+MGCLOTH_HOST_DEVICE inline void filter_velocity(double* v, const V3& v_obs, const V3& n, double dvn, double mu) {
+  const V3 rel = load3(v) - v_obs;
+  const double vn_raw = dot(rel, n);
+  const double vn = vn_raw < 0.0 ? 0.0 : vn_raw;
+  V3 vt = rel - vn_raw * n;
+  const double vt_norm = norm(vt);
+  if (mu > 0.0 && vt_norm > 0.0) {
+    const double keep = 1.0 - mu * dvn / vt_norm;
+    vt = (keep > 0.0 ? keep : 0.0) * vt;
+  }
+  store3(v, v_obs + vn * n + vt);
 }
 
 }  // namespace mgcloth::hd

@@ -18,7 +18,7 @@ void ObstaclePenalty::set_time(double t) {
   m_data.resize(m_obstacles.size());
   for (size_t o = 0; o < m_obstacles.size(); ++o) {
     m_poses[o] = m_obstacles[o].motion->pose(t);
-    m_data[o] = m_obstacles[o].data(m_poses[o]);
+    m_data[o] = m_obstacles[o].data(t);
   }
 }
 
@@ -48,58 +48,35 @@ void ObstacleContact::element_psd_hessian(Index i, const Local& xe, LocalHessian
     hd::contact_psd(o, xe.data(), vertex_stiffness(i), params().thickness, nullptr, H.data());
 }
 
-Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& obstacles,
-                               const std::vector<geometry::Pose>& poses, VecX* pushed) {
+Index project_out_of_obstacles(VecX& x, const std::vector<hd::ObstacleData>& obstacles, VecX* pushed) {
   const Index n = static_cast<Index>(x.size() / 3);
   if (pushed) pushed->setZero(n);
-  std::vector<char> moved(n, 0);
+  std::vector<char> moved(static_cast<size_t>(n), 0);
+  const int count = static_cast<int>(obstacles.size());
   parallel_for(n, [&](Index i) {
-    // A vertex may touch several obstacles; a few passes settle it where their surfaces meet.
-    for (int pass = 0; pass < 4; ++pass) {
-      bool inside = false;
-      for (size_t o = 0; o < obstacles.size(); ++o) {
-        const Vec3 p = x.segment<3>(3 * i);
-        if (obstacles[o].distance(p, poses[o]) >= 0.0) continue;
-        const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
-        if (s.phi >= 0.0) continue;
-        inside = true;
-        x.segment<3>(3 * i) = p - s.phi * s.grad;
-        if (pushed) (*pushed)[i] -= s.phi;
-        moved[i] = 1;
-      }
-      if (!inside) break;
-    }
+    const double d = hd::project_vertex(obstacles.data(), count, x.data() + 3 * i);
+    if (pushed) (*pushed)[i] = d;
+    moved[static_cast<size_t>(i)] = d > 0.0;
   });
-  Index count = 0;
-  for (char c : moved) count += c;
-  return count;
+  Index count_moved = 0;
+  for (char c : moved) count_moved += c;
+  return count_moved;
 }
 
 void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePenalty& contact, double h,
-                    const VecX& pushed, double t) {
-  const auto& obstacles = contact.obstacles();
-  const auto& poses = contact.poses();
+                    const VecX& pushed) {
+  const auto& obstacles = contact.obstacle_data();
   const double d = contact.params().thickness;
   const Index n = static_cast<Index>(x.size() / 3);
   parallel_for(n, [&](Index i) {
-    const Vec3 p = x.segment<3>(3 * i);
-    for (size_t o = 0; o < obstacles.size(); ++o) {
-      if (d - obstacles[o].distance(p, poses[o]) <= 0.0) continue;
-      const geometry::SdfSample s = obstacles[o].sdf(p, poses[o]);
-      const double gap = d - s.phi;
+    for (const hd::ObstacleData& o : obstacles) {
+      hd::V3 normal;
+      const double gap = hd::contact_gap(o, x.data() + 3 * i, d, normal);
       if (gap <= 0.0) continue;
-      const Vec3 nrm = s.grad;
-      const Vec3 v_obs = obstacles[o].motion->point_velocity(t, p);
-      Vec3 v_rel = v.segment<3>(3 * i) - v_obs;
-      double vn = v_rel.dot(nrm);
       // The normal velocity change the contact produced this step: penalty impulse plus projection push.
       const double dvn = h * contact.normal_force(i, gap) / mass[i] + pushed[i] / h;
-      if (vn < 0.0) vn = 0.0;  // no velocity into the obstacle survives the step
-      Vec3 vt = v_rel - v_rel.dot(nrm) * nrm;
-      const double vt_norm = vt.norm();
-      const double mu = obstacles[o].friction;
-      if (mu > 0.0 && vt_norm > 0.0) vt *= std::max(0.0, 1.0 - mu * dvn / vt_norm);
-      v.segment<3>(3 * i) = v_obs + vn * nrm + vt;
+      hd::filter_velocity(v.data() + 3 * i, hd::point_velocity(o, hd::load3(x.data() + 3 * i)), normal, dvn,
+                          o.friction);
     }
   });
 }

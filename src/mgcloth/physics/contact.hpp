@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/geometry/obstacle.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 #include <mgcloth/physics/element_term.hpp>
 
 namespace mgcloth::physics {
@@ -50,19 +51,19 @@ class ObstacleContact final : public ObstaclePenalty {
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
   /// Σ_o 2(k/d)(d − φ_o) ∇φ_o∇φ_oᵀ (hd::contact_psd): each obstacle's term projected to PSD in closed form.
   void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override;
-  double normal_force(Index i, double gap) const override { return vertex_stiffness(i) * gap * gap / params().thickness; }
+  double normal_force(Index i, double gap) const override {
+    return hd::contact_normal_force(vertex_stiffness(i), gap, params().thickness);
+  }
 };
 
-/// Moves every vertex that lies inside an obstacle (φ < 0) back onto its surface along ∇φ; returns how many moved.
-/// `pushed` (if non-null) receives, per vertex, the distance moved.
-Index project_out_of_obstacles(VecX& x, const std::vector<geometry::Obstacle>& obstacles,
-                               const std::vector<geometry::Pose>& poses, VecX* pushed = nullptr);
+/// Moves every vertex that lies inside an obstacle (φ < 0) back onto its surface along ∇φ (hd::project_vertex);
+/// returns how many moved. `pushed` (if non-null) receives, per vertex, the distance moved.
+Index project_out_of_obstacles(VecX& x, const std::vector<hd::ObstacleData>& obstacles, VecX* pushed = nullptr);
 
-/// Coulomb friction by velocity filtering (Bridson et al. 2002): for a vertex in contact, the tangential velocity
-/// relative to the obstacle surface is reduced by μ times the normal velocity change the contact caused
-/// (penalty impulse h·f_n/m, f_n = contact.normal_force, plus the projection push / h), and clamped at zero
-/// (static friction).
+/// Coulomb friction by velocity filtering (hd::filter_velocity, Bridson et al. 2002) against the obstacles at the
+/// contact's current time: for a vertex in contact, the normal velocity change is the penalty impulse h·f_n/m
+/// (f_n = contact.normal_force) plus the projection push / h.
 void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePenalty& contact, double h,
-                    const VecX& pushed, double t);
+                    const VecX& pushed);
 
 }  // namespace mgcloth::physics

@@ -153,21 +153,20 @@ MGCLOTH_HOST_DEVICE inline double point_spring(const double* x, const double* y,
   return 0.5 * k * dot(d, d);
 }
 
+/// The cubic penalty's normal force k (d − φ)²/d at depth gap = d − φ (what friction weighs, §4.5).
+MGCLOTH_HOST_DEVICE inline double contact_normal_force(double k, double gap, double d) { return k * gap * gap / d; }
+
 /// Cubic obstacle penalty of one vertex against one obstacle, k/(3d) (d − φ)³ where φ < d (Wang 2018 §4.5). Adds
 /// to g and H_psd (when non-null) the gradient −(k/d)(d − φ)² ∇φ and the PSD Hessian 2(k/d)(d − φ) ∇φ∇φᵀ: the
 /// exact Hessian's other part, −(k/d)(d − φ)² ∇²φ, is negative semi-definite on our convex shapes, and ∇φ is an
 /// eigenvector of ∇²φ with eigenvalue 0 (|∇φ| = 1), so dropping it is exactly the projection to PSD.
 MGCLOTH_HOST_DEVICE inline double contact_psd(const ObstacleData& o, const double* x, double k, double d, double* g,
                                               double* H_psd) {
-  const V3 q = to_local(o, load3(x));
-  if (d - sdf_distance(o.kind, o.param, q) <= 0.0) return 0.0;
-  V3 gl;
-  const double phi = sdf(o.kind, o.param, q, gl, nullptr);
-  const double gap = d - phi;
+  V3 n;
+  const double gap = contact_gap(o, x, d, n);
   if (gap <= 0.0) return 0.0;
-  const V3 n = rotate(o, gl);
   if (g) {
-    const double s = (k / d) * gap * gap;
+    const double s = contact_normal_force(k, gap, d);
     g[0] -= s * n.x;
     g[1] -= s * n.y;
     g[2] -= s * n.z;

@@ -196,7 +196,7 @@ VecX ClothBody::set_step(LevelObjective& lv, VecX y, double h, double t_next, co
   if (lv.pins) lv.pins->set_targets(targets);
   if (lv.contact) {
     lv.contact->set_time(t_next);
-    physics::project_out_of_obstacles(y, lv.contact->obstacles(), lv.contact->poses());
+    physics::project_out_of_obstacles(y, lv.contact->obstacle_data());
     if (lv.pd_contact) lv.pd_contact->set_active(y);
   }
   return y;
@@ -218,13 +218,21 @@ VecX ClothBody::prepare_step(double t, double h) {
   return set_step(m_levels[0], m_prediction, h, m_step_end, pin_targets(m_step_end));
 }
 
-void ClothBody::finish_step(VecX& x_new, double t_next, double h) {
+void ClothBody::finish_step(VecX& x_new, double h) {
   VecX pushed = VecX::Zero(m_mesh.num_vertices());
   const physics::ObstaclePenalty* c = contact();
-  if (c) physics::project_out_of_obstacles(x_new, c->obstacles(), c->poses(), &pushed);
+  if (c) physics::project_out_of_obstacles(x_new, c->obstacle_data(), &pushed);
   m_v = (x_new - m_x) / h;
-  if (c) physics::apply_friction(x_new, m_v, m_mass, *c, h, pushed, t_next);
+  if (c) physics::apply_friction(x_new, m_v, m_mass, *c, h, pushed);
   m_x = x_new;
+}
+
+void ClothBody::accept_step(const VecX& x_new, const VecX& v_new) {
+  if (x_new.size() != m_x.size() || v_new.size() != m_x.size())
+    throw_error("cloth \"{}\": the step's end has {} and {} entries for {} dofs", name(), x_new.size(), v_new.size(),
+                m_x.size());
+  m_x = x_new;
+  m_v = v_new;
 }
 
 }  // namespace mgcloth::sim

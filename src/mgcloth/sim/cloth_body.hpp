@@ -41,8 +41,11 @@ class ClothBody {
   physics::Objective& objective() { return *m_levels[0].objective; }
   /// The obstacle penalty (cubic, or PD in the projective form); null without obstacles.
   const physics::ObstaclePenalty* contact() const { return m_levels[0].contact; }
-  /// Contact projection and friction after the solve: x_new is projected, v = (x_new − x)/h then filtered.
-  void finish_step(VecX& x_new, double t_next, double h);
+  /// Contact projection and friction after the solve (the obstacles at the step's end, placed by prepare_step):
+  /// x_new is projected, v = (x_new − x)/h then filtered.
+  void finish_step(VecX& x_new, double h);
+  /// The step's end computed elsewhere (a device solver's NonlinearSolver::finish_step): the new state as it is.
+  void accept_step(const VecX& x_new, const VecX& v_new);
   std::vector<Vec3> pin_targets(double t) const;
   /// The cloth's mesh hierarchy (Wang 2018 App. B), built on first use with the pinned vertices kept.
   const hierarchy::TriangleHierarchy& hierarchy(const hierarchy::HierarchyParams& params);

@@ -92,7 +92,7 @@ solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
   if (body.contact()) {
     const auto* contact = body.contact();
     problem.project = [contact](VecX& y) {
-      return physics::project_out_of_obstacles(y, contact->obstacles(), contact->poses());
+      return physics::project_out_of_obstacles(y, contact->obstacle_data());
     };
   }
   return problem;
@@ -125,7 +125,11 @@ std::vector<StepStats> Simulator::step() {
                                    m_frame + 1, m_step + 1, t + h, e.what()));
     }
     const VecX before = x;
-    body.finish_step(x, t + h, h);
+    VecX v;
+    if (m_solvers[c]->finish_step(body.x(), h, x, v))
+      body.accept_step(x, v);
+    else
+      body.finish_step(x, h);
     s.projected = static_cast<Index>(((x - before).array() != 0.0).reshaped(3, x.size() / 3).colwise().any().count());
     finish(s, body.name(), *m_solvers[c], timer);
   }

@@ -9,7 +9,7 @@ namespace mgcloth::solvers {
 /// "fmg-cuda": the nonlinear FMG of Wang 2018 (§4.2, the paper's configuration: one linear V-cycle of the Galerkin
 /// hierarchy per search direction, Chebyshev-accelerated multi-color Gauss-Seidel, line search) with the whole
 /// solve on the GPU (cuda::DeviceFmg): element kernels, BSR assembly, Galerkin products, smoothing, coarse
-/// Cholesky, line search, contact projection. One iteration is one FMG cycle, as for "fmg". backend "host" runs
+/// Cholesky, line search, contact projection and the step's friction filter. One iteration is one FMG cycle, as for "fmg". backend "host" runs
 /// the same pipeline on the CPU (the kernels' check without a GPU; not a fast solver).
 class FmgCuda final : public NonlinearSolver {
  public:
@@ -20,6 +20,11 @@ class FmgCuda final : public NonlinearSolver {
   bool needs_hierarchy() const override { return true; }
   /// Counters: those of "fmg" (directions, energy evaluations, matrix updates, time per phase) plus setup_ms.
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  /// On the device: projection, velocity and friction filter (cuda::DeviceFmg::finish_step).
+  bool finish_step(const VecX& x_old, double h, VecX& x, VecX& v) override {
+    m_impl->finish_step(x_old, h, x, v);
+    return true;
+  }
   std::string device() const { return m_impl->device(); }
 
  private:
