@@ -75,6 +75,7 @@ int run() {
   install_interrupt_handler();
   while (sim.frame() < total) {
     if (interrupted()) {
+      rec.finish(sim);  // the animation so far stays viewable; --resume extends it
       progress.finish();
       std::fprintf(stderr, "mgcloth: interrupted after frame %d; continue with --resume\n", sim.frame());
       return 130;
@@ -86,6 +87,7 @@ int run() {
     for (const auto& s : stats) iterations += s.report.iterations;
     progress.update(sim.frame(), frame_timer.seconds(), iterations, stats.back().report.energy);
   }
+  rec.finish(sim);
   progress.finish();
   progress.message(fmt::format("done: frames 0-{} in {}", sim.frame(), dir.string()));
   return 0;

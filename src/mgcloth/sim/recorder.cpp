@@ -1,7 +1,11 @@
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/core/log.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/sim/gltf_export.hpp>
 #include <mgcloth/sim/recorder.hpp>
 
+#include <algorithm>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -11,6 +15,10 @@ namespace fs = std::filesystem;
 
 namespace {
 constexpr char kMagic[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '1'};
+constexpr char kFramesMagic[8] = {'M', 'G', 'F', 'R', 'A', 'M', '0', '1'};
+constexpr std::size_t kFramesHeaderBytes = sizeof(kFramesMagic) + sizeof(std::uint64_t) + sizeof(std::int64_t);
+constexpr const char* kFramesFile = "frames.bin";
+constexpr const char* kGlbFile = "animation.glb";
 
 template <class T>
 void put(std::ostream& o, const T& v) {
@@ -50,6 +58,13 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
 
 Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
     : m_dir(std::move(dir)), m_fingerprint(scene_fingerprint(sim.scene())), m_record_trace(trace) {
+  const auto& formats = sim.scene().output.formats;
+  m_write_obj = std::find(formats.begin(), formats.end(), "obj") != formats.end();
+  m_write_glb = std::find(formats.begin(), formats.end(), "glb") != formats.end();
+  // Refused before the run rather than after it, when animation.glb would be written.
+  if (m_write_glb && !glb_available())
+    throw InputError(fmt::format("{}: output.format: \"glb\" is not available in this build (configured without "
+                                 "libtinygltf-dev; install it and re-run cmake)", sim.scene().file));
   m_stats.name = "stats.csv";
   m_stats.header = stats_header();
   m_trace.name = "trace.csv";
@@ -101,13 +116,15 @@ void Recorder::start(const Simulator& sim) {
     const std::string name = entry.path().filename().string();
     if (name.size() == 15 && name.rfind("frame_", 0) == 0 && entry.path().extension() == ".obj") fs::remove(entry.path());
   }
+  fs::remove(m_dir / kGlbFile);
+  fs::remove(m_dir / kFramesFile);
+  if (m_write_glb) reset_frames_file();
   write_logs();
   write_frame(sim);
   write_checkpoint(sim);
 }
 
-void Recorder::write_frame(const Simulator& sim) const {
-  if (sim.frame() % sim.scene().output.every != 0) return;
+Mat3X Recorder::surface_positions(const Simulator& sim) const {
   Mat3X x(3, m_combined.u.cols());
   Index offset = 0;
   for (const auto& c : sim.cloths()) {
@@ -120,7 +137,111 @@ void Recorder::write_frame(const Simulator& sim) const {
     x.middleCols(offset, n) = sh->display_positions();
     offset += n;
   }
-  mesh::write_obj(frame_path(m_dir, sim.frame()), m_combined, x, 1.0);
+  return x;
+}
+
+void Recorder::write_frame(const Simulator& sim) const {
+  if (sim.frame() % sim.scene().output.every != 0) return;
+  const Mat3X x = surface_positions(sim);
+  if (m_write_obj) mesh::write_obj(frame_path(m_dir, sim.frame()), m_combined, x, 1.0);
+  if (m_write_glb) append_frame(sim.frame(), sim.time(), x);
+}
+
+std::size_t Recorder::frame_record_bytes() const {
+  return sizeof(std::int64_t) + sizeof(double) + 3 * sizeof(float) * static_cast<std::size_t>(m_combined.u.cols());
+}
+
+void Recorder::reset_frames_file() const {
+  write_file_atomic(
+      m_dir / kFramesFile,
+      [&](std::ostream& o) {
+        o.write(kFramesMagic, sizeof(kFramesMagic));
+        put(o, m_fingerprint);
+        put<std::int64_t>(o, m_combined.u.cols());
+      },
+      true);
+}
+
+void Recorder::append_frame(int frame, double time, const Mat3X& x) const {
+  const fs::path file = m_dir / kFramesFile;
+  const Eigen::Matrix3Xf xf = x.cast<float>();
+  std::ofstream o(file, std::ios::binary | std::ios::app);
+  if (!o) throw_error("{}: cannot open for appending", file.string());
+  put<std::int64_t>(o, frame);
+  put(o, time);
+  o.write(reinterpret_cast<const char*>(xf.data()), static_cast<std::streamsize>(sizeof(float) * xf.size()));
+  o.flush();
+  if (!o) throw_error("{}: write failed (disk full?)", file.string());
+}
+
+long Recorder::truncate_frames_file(int frame) const {
+  const fs::path file = m_dir / kFramesFile;
+  std::ifstream in(file, std::ios::binary);
+  std::string problem;
+  if (!in) {
+    problem = "missing (the earlier run did not write the glb format)";
+  } else {
+    char magic[8];
+    std::uint64_t fingerprint = 0;
+    std::int64_t vertices = -1;
+    in.read(magic, sizeof(magic));
+    in.read(reinterpret_cast<char*>(&fingerprint), sizeof(fingerprint));
+    in.read(reinterpret_cast<char*>(&vertices), sizeof(vertices));
+    if (!in || !std::equal(magic, magic + 8, kFramesMagic) || fingerprint != m_fingerprint || vertices != m_combined.u.cols())
+      problem = "not written by this scene";
+  }
+  if (!problem.empty()) {
+    logger().warn("{}: {}; animation.glb will start at frame {}", file.string(), problem, frame);
+    in.close();
+    reset_frames_file();
+    return -1;
+  }
+  // Records past the checkpoint belong to the interrupted part, and a record cut short by the interruption is
+  // dropped with them; frame numbers must increase, so anything after a repeat is dropped too.
+  const std::size_t record = frame_record_bytes(), size = fs::file_size(file);
+  std::size_t kept = 0;
+  long last = -1;
+  while (kFramesHeaderBytes + (kept + 1) * record <= size) {
+    in.seekg(static_cast<std::streamoff>(kFramesHeaderBytes + kept * record));
+    std::int64_t f = -1;
+    in.read(reinterpret_cast<char*>(&f), sizeof(f));
+    if (!in || f > frame || f <= last) break;
+    last = static_cast<long>(f);
+    ++kept;
+  }
+  in.close();
+  fs::resize_file(file, kFramesHeaderBytes + kept * record);
+  return last;
+}
+
+void Recorder::finish(const Simulator& sim) {
+  if (!m_write_glb) return;
+  const fs::path file = m_dir / kFramesFile;
+  const std::string data = read_file(file);
+  const std::size_t record = frame_record_bytes();
+  std::int64_t vertices = -1;
+  if (data.size() >= kFramesHeaderBytes) std::memcpy(&vertices, data.data() + kFramesHeaderBytes - sizeof(vertices), sizeof(vertices));
+  if (data.size() < kFramesHeaderBytes || !std::equal(kFramesMagic, kFramesMagic + 8, data.data()) ||
+      vertices != m_combined.u.cols())
+    throw_error("{}: not a frame record of this scene ({} vertices)", file.string(), m_combined.u.cols());
+  SurfaceAnimation anim;
+  anim.tris = m_combined.tris;
+  anim.uv = m_combined.u;
+  anim.num_vertices = static_cast<Index>(m_combined.u.cols());
+  const std::size_t frames = (data.size() - kFramesHeaderBytes) / record;  // a partial record at the end is ignored
+  const std::size_t floats = 3 * static_cast<std::size_t>(anim.num_vertices);
+  anim.positions.resize(frames * floats);
+  for (std::size_t k = 0; k < frames; ++k) {
+    const char* r = data.data() + kFramesHeaderBytes + k * record;
+    std::int64_t frame;
+    double time;
+    std::memcpy(&frame, r, sizeof(frame));
+    std::memcpy(&time, r + sizeof(frame), sizeof(time));
+    std::memcpy(anim.positions.data() + k * floats, r + sizeof(frame) + sizeof(time), sizeof(float) * floats);
+    anim.frame_numbers.push_back(static_cast<int>(frame));
+    anim.times.push_back(time);
+  }
+  write_glb(m_dir / kGlbFile, anim, sim.obstacles());
 }
 
 void Recorder::write_checkpoint(const Simulator& sim) const {
@@ -222,6 +343,13 @@ void Recorder::resume(Simulator& sim) {
     vs.push_back(std::move(v));
   }
   sim.set_state(static_cast<int>(frame), step, xs, vs);
+  if (m_write_glb) {
+    // The checkpoint's frame is normally the last record kept; it is missing when frames.bin was, or when
+    // output.every changed, and the animation needs its state as the base or the next frame.
+    const long last = truncate_frames_file(static_cast<int>(frame));
+    if (last < frame && (last < 0 || frame % sim.scene().output.every == 0))
+      append_frame(static_cast<int>(frame), sim.time(), surface_positions(sim));
+  }
   m_stats.load_up_to_step(m_dir, step);
   if (m_record_trace) m_trace.load_up_to_step(m_dir, step);
   if (m_record_probes) m_probes.load_up_to_step(m_dir, step);

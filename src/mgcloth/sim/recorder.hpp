@@ -5,11 +5,13 @@
 
 namespace mgcloth::sim {
 
-/// Writes a run to its output folder: frame_NNNNN.obj (all cloths, then the limit surface of every shell sampled
-/// for display; world positions with the material vt), probes.csv for shells with probes,
-/// stats.csv (one row per step and cloth), scene.resolved.json (every default filled in) and checkpoint.bin
-/// (x and v of every cloth after the last complete frame). Every file is written atomically, so an interrupted run
-/// leaves only complete files, and `resume()` continues it from its last checkpoint.
+/// Writes a run to its output folder: frame_NNNNN.obj (format "obj": all cloths, then the limit surface of every
+/// shell sampled for display; world positions with the material vt), animation.glb (format "glb", see finish()),
+/// probes.csv for shells with probes, stats.csv (one row per step and cloth), scene.resolved.json (every default
+/// filled in) and checkpoint.bin (x and v of every cloth after the last complete frame). Every file is written
+/// atomically, so an interrupted run leaves only complete files, and `resume()` continues it from its last
+/// checkpoint. The one exception is frames.bin, the glb format's record of the frames so far: it is only appended
+/// to (a long run must not rewrite every earlier frame each frame), and resume() cuts it back to the checkpoint.
 class Recorder {
  public:
   /// With `trace`, also trace.csv: one row per solver iteration (frame, step, cloth, iteration, energy,
@@ -24,13 +26,25 @@ class Recorder {
   void resume(Simulator& sim);
   /// Records the stats of the steps of a frame, then the frame (when due) and the checkpoint.
   void record_frame(const Simulator& sim, const std::vector<StepStats>& stats);
+  /// Ends recording (after the last frame, or when a run stops early): with the glb format, writes animation.glb
+  /// from every frame recorded so far (write_glb in gltf_export.hpp). Calling it again rewrites it.
+  void finish(const Simulator& sim);
 
   static std::string stats_header();
   static std::string stats_row(const StepStats& s);
   static std::filesystem::path frame_path(const std::filesystem::path& dir, int frame);
 
  private:
+  /// Positions of m_combined's vertices: every cloth, then every shell's display surface.
+  Mat3X surface_positions(const Simulator& sim) const;
   void write_frame(const Simulator& sim) const;
+  /// frames.bin: a header (magic, scene fingerprint, vertex count), then per written frame its number, its time
+  /// and the float32 positions of m_combined's vertices.
+  void reset_frames_file() const;
+  void append_frame(int frame, double time, const Mat3X& x) const;
+  /// Keeps the frames up to `frame` (the checkpoint's); returns the last one kept, −1 when none (or no valid file).
+  long truncate_frames_file(int frame) const;
+  std::size_t frame_record_bytes() const;
   void write_checkpoint(const Simulator& sim) const;
   void write_logs() const;
 
@@ -48,6 +62,7 @@ class Recorder {
   CsvLog m_stats, m_trace, m_probes;
   bool m_record_probes = false;
   bool m_record_trace;
+  bool m_write_obj = false, m_write_glb = false;  ///< output.format
 };
 
 /// FNV-1a hash of the physical content of a scene (everything but frame count and output settings), so that a

@@ -1,6 +1,7 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/sim/scene.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::sim {
@@ -296,10 +297,14 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
       else if (f.is_array())
         for (const auto& x : f) s.output.formats.push_back(x.is_string() ? x.get<std::string>() : x.dump());
       else
-        o->fail("format", "expected \"obj\" or a list of formats");
-      if (s.output.formats.empty()) o->fail("format", "needs at least one format (available: obj)");
-      for (const auto& fm : s.output.formats)
-        if (fm != "obj") o->fail("format", fmt::format("unknown format \"{}\" (available: obj)", fm));
+        o->fail("format", "expected a format name or a list of them (available: obj, glb)");
+      if (s.output.formats.empty()) o->fail("format", "needs at least one format (available: obj, glb)");
+      for (size_t i = 0; i < s.output.formats.size(); ++i) {
+        const auto& fm = s.output.formats[i];
+        if (fm != "obj" && fm != "glb") o->fail("format", fmt::format("unknown format \"{}\" (available: obj, glb)", fm));
+        if (std::find(s.output.formats.begin(), s.output.formats.begin() + i, fm) != s.output.formats.begin() + i)
+          o->fail("format", fmt::format("format \"{}\" listed twice", fm));
+      }
     }
     o->finish();
   }
