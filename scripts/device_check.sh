@@ -13,10 +13,13 @@ root=/tmp/mgcloth-device
 rm -rf "$root" && mkdir -p "$root" && tar -C "$root" -xJf .device/bundle.tar.xz
 # cuSOLVER is opened at run time; the machine's CUDA Python packages carry it.
 cusolver=$(find / -name 'libcusolver.so.1[12]' -not -path '*/proc/*' 2>/dev/null | head -n 1)
-export LD_LIBRARY_PATH="$root/lib${cusolver:+:$(dirname "$cusolver")}${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+# cuSPARSE likewise, for the Galerkin gather's comparison with a general SpGEMM (fmg-cuda@compare_spgemm=true).
+cusparse=$(find / -name 'libcusparse.so.1[23]' -not -path '*/proc/*' 2>/dev/null | head -n 1)
+export LD_LIBRARY_PATH="$root/lib${cusolver:+:$(dirname "$cusolver")}${cusparse:+:$(dirname "$cusparse")}${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 report="$out/report.txt"
 : > "$report"
 echo "cuSOLVER: ${cusolver:-not found (the coarse solve falls back to the host)}" | tee -a "$report"
+echo "cuSPARSE: ${cusparse:-not found (no SpGEMM comparison)}" | tee -a "$report"
 nvidia-smi --query-gpu=name,memory.total,clocks.max.sm,clocks.max.mem --format=csv 2>&1 | tee -a "$report"
 status=0
 run_test() {  # program, filter
@@ -46,6 +49,7 @@ if [ "$what" = bench ] || [ "$what" = all ]; then
     bench "gpu_profile_dt1_$((30 * sub))" --vertices 120000 --solver fmg-cuda@profile=true --substeps $sub --steps 3 --warmup 3 --rel-grad 0.01
   done
   bench gpu_nographs_dt1_30 --vertices 120000 --solver fmg-cuda@graphs=false --substeps 1 --steps 5 --warmup 3 --rel-grad 0.01
+  bench gpu_spgemm_dt1_30 --vertices 40000,120000,250000 --solver fmg-cuda@compare_spgemm=true --substeps 1 --steps 1 --warmup 1 --rel-grad 0.01
   bench gpu_hostcoarse_dt1_30 --vertices 120000 --solver fmg-cuda@coarse_solve=host --substeps 1 --steps 5 --warmup 3 --rel-grad 0.01
   bench cpu16_dt1_30 --vertices 120000 --solver fmg --threads 16 --substeps 1 --steps 3 --warmup 3 --rel-grad 0.01
   [ -f "$root/all.csv" ] && cp "$root/all.csv" "$out/scalability.csv"

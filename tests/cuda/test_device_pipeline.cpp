@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
 
 using namespace mgcloth;
@@ -184,6 +185,33 @@ TEST(DevicePipeline, GalerkinOperatorsAndSmoothersMatchTheCpuMultigrid) {
     A = Ac;
     EXPECT_GT(level.rho + p.levels()[l].rho, 0.0);
   }
+}
+
+TEST(DevicePipeline, TheGalerkinGatherEqualsAGeneralSpgemmOfTheScalarMatrices) {
+  // compare_spgemm's reference (Eigen's SpGEMM on the host backend, cuSPARSE's on the GPU) from the same fine
+  // matrix: every coarse level must come out the same, and the counters must report both timings.
+  const Fixture f = make(1500, true);
+  cuda::FmgSettings s;
+  s.compare_spgemm = true;
+  auto solver = cuda::make_device_fmg(cuda::Backend::Host, s);
+  VecX x = perturbed(f, 11);
+  cuda::Limits limits;
+  limits.max_iters = 1;
+  const cuda::Outcome out = solver->minimize(f.cloth->objective, f.tables, true, x, limits, false);
+  std::map<std::string, double> c(out.counters.begin(), out.counters.end());
+  ASSERT_TRUE(c.count("spgemm_max_rel_diff")) << "no comparison in the counters";
+  EXPECT_LT(c["spgemm_max_rel_diff"], 1e-13);
+  EXPECT_GT(c["spgemm_gather_ms"], 0.0);
+  EXPECT_GT(c["spgemm_reference_ms"], 0.0);
+  // The scalar forms themselves: P ⊗ I₃ has 3 entries per vertex weight, and its product with a coarse vector
+  // is the prolongation.
+  HostPipeline p(cuda::FmgSettings{});
+  p.build(f.cloth->objective, f.tables);
+  const cuda::LevelLayout &F = p.layout().levels[0], &C = p.layout().levels[1];
+  const cuda::ScalarCsr P = cuda::expand_table(F.P, C.n);
+  EXPECT_EQ(P.values.size(), 3 * F.P.weights.size());
+  EXPECT_EQ(P.rows, 3 * F.n);
+  EXPECT_EQ(P.cols, 3 * C.n);
 }
 
 TEST(DevicePipeline, VCyclesContractLikeTheCpuMultigridWithEitherCoarseSolve) {

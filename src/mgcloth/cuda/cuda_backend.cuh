@@ -6,6 +6,7 @@
 #include <cuda_runtime.h>
 
 #include <mgcloth/core/types.hpp>
+#include <mgcloth/cuda/layout.hpp>
 
 #include <algorithm>
 #include <functional>
@@ -154,6 +155,12 @@ struct CudaBackend {
   /// failed (something in body cannot be captured): the caller then runs body directly.
   static bool capture(Graph& g, const std::function<void()>& body);
   static void launch(const Graph& g) { check_cuda(cudaGraphLaunch(g.exec, pipeline_stream()), "cudaGraphLaunch"); }
+
+  /// The reference for FmgSettings::compare_spgemm: C = Pt (A P) by cuSPARSE's SpGEMM (generic API, loaded at run
+  /// time like cuSOLVER) on the device, the mean time of `repeats` runs (work estimation, compute and copy of both
+  /// products, the buffers of the warm-up reused) into ms. False where cuSPARSE cannot be loaded.
+  static bool spgemm_rap(const ScalarCsr& A, const ScalarCsr& P, const ScalarCsr& Pt, int repeats, ScalarCsr& C,
+                         double& ms);
 
   /// Dense Cholesky of an N x N column-major SPD matrix in device memory: cuSOLVER potrf/potrs where the library
   /// can be loaded, else the factor is computed on the host (and each solve goes through it).

@@ -3,6 +3,7 @@
 #include <mgcloth/cuda/pipeline.hpp>
 
 #include <cusolverDn.h>
+#include <cusparse.h>
 #include <dlfcn.h>
 
 #include <Eigen/Cholesky>
@@ -186,6 +187,153 @@ void CudaBackend::DenseCholesky::solve(const double* b, double* x) {
   if (m.potrs(m.handle, CUBLAS_FILL_MODE_LOWER, m.N, 1, m.factor.data(), m.N, x, m.N, m.info.data()) !=
       CUSOLVER_STATUS_SUCCESS)
     fail("fmg-cuda: cusolverDnDpotrs failed");
+}
+
+namespace {
+// cuSPARSE, loaded at run time: the generic SpGEMM entry points (their types from the header, nothing linked).
+struct Cusparse {
+  decltype(&cusparseCreate) create = nullptr;
+  decltype(&cusparseSetStream) set_stream = nullptr;
+  decltype(&cusparseCreateCsr) create_csr = nullptr;
+  decltype(&cusparseDestroySpMat) destroy_mat = nullptr;
+  decltype(&cusparseSpGEMM_createDescr) create_descr = nullptr;
+  decltype(&cusparseSpGEMM_destroyDescr) destroy_descr = nullptr;
+  decltype(&cusparseSpGEMM_workEstimation) work_estimation = nullptr;
+  decltype(&cusparseSpGEMM_compute) compute = nullptr;
+  decltype(&cusparseSpGEMM_copy) copy = nullptr;
+  decltype(&cusparseSpMatGetSize) get_size = nullptr;
+  decltype(&cusparseCsrSetPointers) set_pointers = nullptr;
+  cusparseHandle_t handle = nullptr;
+
+  Cusparse() {
+    void* lib = nullptr;
+    for (const char* name : {"libcusparse.so.12", "libcusparse.so.13", "libcusparse.so"}) {
+      lib = dlopen(name, RTLD_NOW | RTLD_LOCAL);
+      if (lib) break;
+    }
+    if (!lib) return;
+    const auto load = [lib](auto& f, const char* symbol) { f = reinterpret_cast<std::decay_t<decltype(f)>>(dlsym(lib, symbol)); };
+    load(create, "cusparseCreate");
+    load(set_stream, "cusparseSetStream");
+    load(create_csr, "cusparseCreateCsr");
+    load(destroy_mat, "cusparseDestroySpMat");
+    load(create_descr, "cusparseSpGEMM_createDescr");
+    load(destroy_descr, "cusparseSpGEMM_destroyDescr");
+    load(work_estimation, "cusparseSpGEMM_workEstimation");
+    load(compute, "cusparseSpGEMM_compute");
+    load(copy, "cusparseSpGEMM_copy");
+    load(get_size, "cusparseSpMatGetSize");
+    load(set_pointers, "cusparseCsrSetPointers");
+    if (!create || !set_stream || !create_csr || !destroy_mat || !create_descr || !destroy_descr || !work_estimation ||
+        !compute || !copy || !get_size || !set_pointers || create(&handle) != CUSPARSE_STATUS_SUCCESS ||
+        set_stream(handle, pipeline_stream()) != CUSPARSE_STATUS_SUCCESS)
+      handle = nullptr;  // the library stays loaded: the process may ask again
+  }
+  static Cusparse& get() {
+    static Cusparse* c = new Cusparse();  // never freed, as the reduction scratch
+    return *c;
+  }
+  void check(cusparseStatus_t st, const char* what) const {
+    if (st != CUSPARSE_STATUS_SUCCESS) fail(std::string("fmg-cuda: ") + what + " failed (cuSPARSE status " + std::to_string(static_cast<int>(st)) + ")");
+  }
+};
+
+/// A scalar CSR matrix in device memory with its cuSPARSE descriptor.
+struct DeviceCsr {
+  int rows = 0, cols = 0;
+  DeviceBuffer<int> offsets, indices;
+  DeviceBuffer<double> values;
+  cusparseSpMatDescr_t mat = nullptr;
+  void describe(const Cusparse& cs, long nnz) {
+    if (mat) cs.destroy_mat(mat);
+    cs.check(cs.create_csr(&mat, rows, cols, nnz, offsets.data(), nnz ? indices.data() : nullptr,
+                           nnz ? values.data() : nullptr, CUSPARSE_INDEX_32I, CUSPARSE_INDEX_32I,
+                           CUSPARSE_INDEX_BASE_ZERO, CUDA_R_64F),
+             "cusparseCreateCsr");
+  }
+  void upload(const Cusparse& cs, const ScalarCsr& m) {
+    rows = m.rows;
+    cols = m.cols;
+    offsets.upload(m.offsets);
+    indices.upload(m.indices);
+    values.upload(m.values);
+    describe(cs, static_cast<long>(m.values.size()));
+  }
+  ~DeviceCsr() {
+    if (mat) Cusparse::get().destroy_mat(mat);
+  }
+};
+
+/// C = A B by cusparseSpGEMM (work estimation, compute, copy), the buffers kept in `work` between calls.
+struct SpgemmProduct {
+  DeviceBuffer<char> buffer1, buffer2;
+  void run(const Cusparse& cs, DeviceCsr& A, DeviceCsr& B, DeviceCsr& C) {
+    const double one = 1.0, zero = 0.0;
+    const auto op = CUSPARSE_OPERATION_NON_TRANSPOSE;
+    const auto alg = CUSPARSE_SPGEMM_DEFAULT;
+    if (C.rows != A.rows || C.cols != B.cols || !C.mat) {
+      C.rows = A.rows;
+      C.cols = B.cols;
+      C.offsets.resize(static_cast<size_t>(A.rows) + 1);
+      C.describe(cs, 0);
+    }
+    cusparseSpGEMMDescr_t d = nullptr;
+    cs.check(cs.create_descr(&d), "cusparseSpGEMM_createDescr");
+    size_t size1 = 0, size2 = 0;
+    cs.check(cs.work_estimation(cs.handle, op, op, &one, A.mat, B.mat, &zero, C.mat, CUDA_R_64F, alg, d, &size1, nullptr),
+             "cusparseSpGEMM_workEstimation");
+    if (buffer1.size() < size1) buffer1.resize(size1);
+    cs.check(cs.work_estimation(cs.handle, op, op, &one, A.mat, B.mat, &zero, C.mat, CUDA_R_64F, alg, d, &size1,
+                                buffer1.data()),
+             "cusparseSpGEMM_workEstimation");
+    cs.check(cs.compute(cs.handle, op, op, &one, A.mat, B.mat, &zero, C.mat, CUDA_R_64F, alg, d, &size2, nullptr),
+             "cusparseSpGEMM_compute");
+    if (buffer2.size() < size2) buffer2.resize(size2);
+    cs.check(cs.compute(cs.handle, op, op, &one, A.mat, B.mat, &zero, C.mat, CUDA_R_64F, alg, d, &size2, buffer2.data()),
+             "cusparseSpGEMM_compute");
+    int64_t rows = 0, cols = 0, nnz = 0;
+    cs.check(cs.get_size(C.mat, &rows, &cols, &nnz), "cusparseSpMatGetSize");
+    if (C.indices.size() < static_cast<size_t>(nnz)) {
+      C.indices.resize(static_cast<size_t>(nnz));
+      C.values.resize(static_cast<size_t>(nnz));
+    }
+    cs.check(cs.set_pointers(C.mat, C.offsets.data(), C.indices.data(), C.values.data()), "cusparseCsrSetPointers");
+    cs.check(cs.copy(cs.handle, op, op, &one, A.mat, B.mat, &zero, C.mat, CUDA_R_64F, alg, d), "cusparseSpGEMM_copy");
+    cs.check(cs.destroy_descr(d), "cusparseSpGEMM_destroyDescr");
+  }
+};
+}  // namespace
+
+bool CudaBackend::spgemm_rap(const ScalarCsr& A, const ScalarCsr& P, const ScalarCsr& Pt, int repeats, ScalarCsr& C,
+                             double& ms) {
+  const Cusparse& cs = Cusparse::get();
+  if (!cs.handle) return false;
+  DeviceCsr a, p, pt, ap, rap;
+  a.upload(cs, A);
+  p.upload(cs, P);
+  pt.upload(cs, Pt);
+  SpgemmProduct first, second;
+  const auto product = [&] {
+    first.run(cs, a, p, ap);
+    second.run(cs, pt, ap, rap);
+  };
+  product();  // warm-up: sizes the buffers
+  synchronize();
+  Timer t;
+  for (int r = 0; r < repeats; ++r) product();
+  synchronize();
+  ms = t.ms() / repeats;
+  int64_t rows = 0, cols = 0, nnz = 0;
+  cs.check(cs.get_size(rap.mat, &rows, &cols, &nnz), "cusparseSpMatGetSize");
+  C.rows = static_cast<int>(rows);
+  C.cols = static_cast<int>(cols);
+  C.offsets.resize(static_cast<size_t>(rows) + 1);
+  C.indices.resize(static_cast<size_t>(nnz));
+  C.values.resize(static_cast<size_t>(nnz));
+  rap.offsets.download(C.offsets.data(), C.offsets.size());
+  rap.indices.download(C.indices.data(), C.indices.size());
+  rap.values.download(C.values.data(), C.values.size());
+  return true;
 }
 
 template class Pipeline<CudaBackend>;

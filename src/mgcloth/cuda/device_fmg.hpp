@@ -29,6 +29,11 @@ struct FmgSettings {
   bool profile = false;
   /// Replay the V-cycle as one captured graph (CUDA Graphs) instead of launching its kernels one by one.
   bool graphs = true;
+  /// Once per pipeline, at its first matrix: time the Galerkin gather of every level against a general SpGEMM
+  /// computing Pᵀ(A P) on the scalar CSR forms (cuSPARSE on the GPU, as Wang 2018 §5 compares its own RAP; Eigen
+  /// on the host backend) and check that both give the same coarse matrices. Counters spgemm_gather_ms,
+  /// spgemm_reference_ms (per update of the whole hierarchy) and spgemm_max_rel_diff, on every later solve too.
+  bool compare_spgemm = false;
 };
 
 struct Limits {

@@ -4,6 +4,10 @@
 // without a GPU, against the CPU solvers (tests/cuda/); the CUDA backend (cuda_backend.cuh) launches the same
 // lambdas as kernels.
 #include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
+#include <mgcloth/cuda/layout.hpp>
+
+#include <Eigen/SparseCore>
 
 #include <Eigen/Cholesky>
 #include <functional>
@@ -107,6 +111,28 @@ struct HostBackend {
   }
   static void synchronize() {}
   static std::string device_name() { return "host (CPU emulation of the device pipeline)"; }
+
+  /// The reference for FmgSettings::compare_spgemm: C = Pt (A P) by Eigen's sparse products, the mean time of
+  /// `repeats` runs after a warm-up into ms.
+  static bool spgemm_rap(const ScalarCsr& A, const ScalarCsr& P, const ScalarCsr& Pt, int repeats, ScalarCsr& C,
+                         double& ms) {
+    using Sp = Eigen::SparseMatrix<double, Eigen::RowMajor, int>;
+    const auto map = [](const ScalarCsr& m) {
+      return Eigen::Map<const Sp>(m.rows, m.cols, static_cast<int>(m.values.size()), m.offsets.data(),
+                                  m.indices.data(), m.values.data());
+    };
+    Sp result = map(Pt) * Sp(map(A) * map(P));
+    Timer t;
+    for (int r = 0; r < repeats; ++r) result = map(Pt) * Sp(map(A) * map(P));
+    ms = t.ms() / repeats;
+    result.makeCompressed();
+    C.rows = static_cast<int>(result.rows());
+    C.cols = static_cast<int>(result.cols());
+    C.offsets.assign(result.outerIndexPtr(), result.outerIndexPtr() + result.rows() + 1);
+    C.indices.assign(result.innerIndexPtr(), result.innerIndexPtr() + result.nonZeros());
+    C.values.assign(result.valuePtr(), result.valuePtr() + result.nonZeros());
+    return true;
+  }
 
   /// Dense Cholesky of an N x N column-major SPD matrix in place (the CUDA backend's cuSOLVER potrf/potrs).
   class DenseCholesky {

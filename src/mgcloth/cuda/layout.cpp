@@ -224,4 +224,53 @@ void from_device_order(const Layout& layout, const std::vector<double>& in, VecX
     for (int k = 0; k < 3; ++k) x[3 * perm[r] + k] = in[3 * r + k];
 }
 
+ScalarCsr expand_blocks(const linalg::BlockMatrix3& pattern, const std::vector<double>& blocks) {
+  ScalarCsr m;
+  const Index n = pattern.rows();
+  m.rows = m.cols = static_cast<int>(3 * n);
+  m.offsets.assign(1, 0);
+  const auto& off = pattern.row_offsets();
+  const auto& cols = pattern.col_indices();
+  for (Index r = 0; r < n; ++r)
+    for (int i = 0; i < 3; ++i) {
+      for (Index k = off[static_cast<size_t>(r)]; k < off[static_cast<size_t>(r) + 1]; ++k)
+        for (int j = 0; j < 3; ++j) {
+          m.indices.push_back(static_cast<int>(3 * cols[static_cast<size_t>(k)] + j));
+          m.values.push_back(blocks[9 * static_cast<size_t>(k) + 3 * i + j]);
+        }
+      m.offsets.push_back(static_cast<int>(m.indices.size()));
+    }
+  return m;
+}
+
+ScalarCsr expand_table(const CsrTable& table, Index cols) {
+  ScalarCsr m;
+  const size_t rows = table.offsets.size() - 1;
+  m.rows = static_cast<int>(3 * rows);
+  m.cols = static_cast<int>(3 * cols);
+  m.offsets.assign(1, 0);
+  for (size_t r = 0; r < rows; ++r)
+    for (int i = 0; i < 3; ++i) {
+      for (Index k = table.offsets[r]; k < table.offsets[r + 1]; ++k) {
+        m.indices.push_back(static_cast<int>(3 * table.indices[static_cast<size_t>(k)] + i));
+        m.values.push_back(table.weights[static_cast<size_t>(k)]);
+      }
+      m.offsets.push_back(static_cast<int>(m.indices.size()));
+    }
+  return m;
+}
+
+double relative_difference(const ScalarCsr& C, const linalg::BlockMatrix3& pattern, const std::vector<double>& blocks) {
+  double scale = 0.0, diff = 0.0;
+  for (double v : blocks) scale = std::max(scale, std::abs(v));
+  for (int i = 0; i < C.rows; ++i)
+    for (int k = C.offsets[static_cast<size_t>(i)]; k < C.offsets[static_cast<size_t>(i) + 1]; ++k) {
+      const int j = C.indices[static_cast<size_t>(k)];
+      const Index b = pattern.find(i / 3, j / 3);
+      const double ours = b < 0 ? 0.0 : blocks[9 * static_cast<size_t>(b) + 3 * static_cast<size_t>(i % 3) + static_cast<size_t>(j % 3)];
+      diff = std::max(diff, std::abs(C.values[static_cast<size_t>(k)] - ours));
+    }
+  return scale > 0.0 ? diff / scale : diff;
+}
+
 }  // namespace mgcloth::cuda

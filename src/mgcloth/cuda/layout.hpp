@@ -81,6 +81,21 @@ struct Layout {
   std::vector<LevelLayout> levels;  ///< finest first
 };
 
+/// A scalar CSR matrix (32-bit indices, as cuSPARSE takes them): the form in which a general sparse library sees the
+/// hierarchy, for the comparison of the Galerkin gather with a general SpGEMM (FmgSettings::compare_spgemm).
+struct ScalarCsr {
+  int rows = 0, cols = 0;
+  std::vector<int> offsets, indices;
+  std::vector<double> values;
+};
+/// The BSR matrix with the given row-major 3x3 blocks, entry by entry.
+ScalarCsr expand_blocks(const linalg::BlockMatrix3& pattern, const std::vector<double>& blocks);
+/// The vertex table (rows × cols weights) as the 3rows × 3cols matrix table ⊗ I₃.
+ScalarCsr expand_table(const CsrTable& table, Index cols);
+/// max |C − A| over C's entries and A's blocks, relative to max |A|: how far a general SpGEMM's Pᵀ A P (C, scalar)
+/// is from the gather's (A, blocks in `pattern`). Entries of C outside the pattern count in full.
+double relative_difference(const ScalarCsr& C, const linalg::BlockMatrix3& pattern, const std::vector<double>& blocks);
+
 /// Builds the layout of `objective` (which must be finalized) and its hierarchy. Throws InputError naming a term
 /// that the device pipeline does not implement (seams, mass-spring membrane, Projective Dynamics terms).
 Layout build_layout(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations);

@@ -108,6 +108,7 @@ class Pipeline final : public DeviceFmg {
     }
     m_beta = 1.0;
     m_vcycle_graph.reset();
+    m_spgemm = SpgemmComparison{};
   }
 
   const std::vector<Level>& levels() const { return m_levels; }
@@ -421,21 +422,56 @@ class Pipeline final : public DeviceFmg {
 
   /// New level-0 values: Galerkin products A_{l+1} = Pᵀ A_l P (one gather per coarse block over the symbolic map),
   /// inverted diagonal blocks, Chebyshev estimates (first matrix only), the coarsest factorization.
-  void update_hierarchy() {
+  void galerkin(size_t l) {
+    Level &F = m_levels[l], &C = m_levels[l + 1];
+    const Index *off = F.rap_off.data(), *blk = F.rap_blk.data();
+    const double *w = F.rap_w.data(), *Af = F.blocks.data();
+    double* Ac = C.blocks.data();
+    B::for_each(C.nb, MGCLOTH_LAMBDA(Index k) {
+      double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+      for (Index t = off[k]; t < off[k + 1]; ++t) {
+        const double* a = Af + 9 * blk[t];
+        for (int q = 0; q < 9; ++q) s[q] += w[t] * a[q];
+      }
+      for (int q = 0; q < 9; ++q) Ac[9 * k + q] = s[q];
+    });
+  }
+
+  /// FmgSettings::compare_spgemm, on the current matrices (after update_hierarchy()).
+  struct SpgemmComparison {
+    bool done = false, available = false;
+    double gather_ms = 0.0, reference_ms = 0.0, max_rel_diff = 0.0;
+  };
+  const SpgemmComparison& compare_spgemm() {
+    constexpr int kRepeats = 10;  // after one warm-up run each
+    m_spgemm = SpgemmComparison{};
+    m_spgemm.done = m_spgemm.available = true;
     for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
-      Level &F = m_levels[l], &C = m_levels[l + 1];
-      const Index *off = F.rap_off.data(), *blk = F.rap_blk.data();
-      const double *w = F.rap_w.data(), *Af = F.blocks.data();
-      double* Ac = C.blocks.data();
-      B::for_each(C.nb, MGCLOTH_LAMBDA(Index k) {
-        double s[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-        for (Index t = off[k]; t < off[k + 1]; ++t) {
-          const double* a = Af + 9 * blk[t];
-          for (int q = 0; q < 9; ++q) s[q] += w[t] * a[q];
-        }
-        for (int q = 0; q < 9; ++q) Ac[9 * k + q] = s[q];
-      });
+      galerkin(l);
+      B::synchronize();
+      Timer t;
+      for (int r = 0; r < kRepeats; ++r) galerkin(l);
+      B::synchronize();
+      m_spgemm.gather_ms += t.ms() / kRepeats;
+      std::vector<double> fine, coarse;
+      m_levels[l].blocks.download(fine);
+      m_levels[l + 1].blocks.download(coarse);
+      const LevelLayout &F = m_layout.levels[l], &C = m_layout.levels[l + 1];
+      const ScalarCsr A = expand_blocks(F.pattern, fine), P = expand_table(F.P, C.n), Pt = expand_table(F.Pt, F.n);
+      ScalarCsr rap;
+      double ms = 0.0;
+      if (!B::spgemm_rap(A, P, Pt, kRepeats, rap, ms)) {
+        m_spgemm.available = false;
+        return m_spgemm;
+      }
+      m_spgemm.reference_ms += ms;
+      m_spgemm.max_rel_diff = std::max(m_spgemm.max_rel_diff, relative_difference(rap, C.pattern, coarse));
     }
+    return m_spgemm;
+  }
+
+  void update_hierarchy() {
+    for (size_t l = 0; l + 1 < m_levels.size(); ++l) galerkin(l);
     for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
       Level& L = m_levels[l];
       const Index* diag = L.diag.data();
@@ -636,6 +672,7 @@ class Pipeline final : public DeviceFmg {
   double m_rows_active = 0.0, m_rows_total = 0.0;
   double m_beta = 1.0;  ///< accepted step / model step of the last direction, to start the next line search (§4.2.3)
   Profile m_prof;
+  SpgemmComparison m_spgemm;
   typename B::Graph m_vcycle_graph;
 };
 
@@ -710,6 +747,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
   const auto update_matrix = [&] {
     timed(ms.assembly, [&] { hessian(x); });
     timed(ms.galerkin, [&] { update_hierarchy(); });
+    if (m_s.compare_spgemm && !m_spgemm.done) compare_spgemm();
     as_stale = true;
     m_beta = 1.0;  // a fresh model is trusted again
     ++matrix_updates;
@@ -910,6 +948,11 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
                   {"model_ms", ms.model},
                   {"levels", static_cast<double>(m_levels.size())},
                   {"graph_launches", static_cast<double>(graph_launches)}};
+  if (m_spgemm.available) {
+    out.counters.push_back({"spgemm_gather_ms", m_spgemm.gather_ms});
+    out.counters.push_back({"spgemm_reference_ms", m_spgemm.reference_ms});
+    out.counters.push_back({"spgemm_max_rel_diff", m_spgemm.max_rel_diff});
+  }
   if (m_s.profile) {
     out.counters.push_back({"smoothing_ms", m_prof.smoothing});
     out.counters.push_back({"coarse_ms", m_prof.coarse});

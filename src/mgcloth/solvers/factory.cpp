@@ -118,6 +118,7 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
   c.backend = r.choice("backend", c.backend, {"cuda", "host"});
   p.profile = r.boolean("profile", p.profile);
   p.graphs = r.boolean("graphs", p.graphs);
+  p.compare_spgemm = r.boolean("compare_spgemm", p.compare_spgemm);
   return c;
 }
 Json write_fmg_cuda(const FmgCudaConfig& c) {
@@ -135,7 +136,8 @@ Json write_fmg_cuda(const FmgCudaConfig& c) {
           {"coarse_solve", p.coarse_solve},
           {"backend", c.backend},
           {"profile", p.profile},
-          {"graphs", p.graphs}};
+          {"graphs", p.graphs},
+          {"compare_spgemm", p.compare_spgemm}};
 }
 
 FasParams read_fas(JsonReader& r, FasParams p) {
