@@ -274,6 +274,26 @@ TEST(TrustRegion, HybridHessianTakesTheProjectedModelOnlyWhereTheExactOneIsIndef
   EXPECT_GT(min_eigenvalue(*t.objective, hybrid), 0.0);
 }
 
+TEST(TrustRegion, ExtrapolatedStepsKeepTheMinimizerAndTheEnergyDecreasing) {
+  // "extrapolate": where the model was too stiff along an accepted step (ρ > 1, the hybrid model's projected
+  // Hessian on the compressed chain), doublings of the step that lower the energy are kept: the same minimizer,
+  // energies still decreasing, and the doublings counted.
+  auto t = hanging_chain();
+  auto problem = t.problem();
+  VecX plain = t.x0, extrapolated = t.x0;
+  const auto ref = by_name("tr-dogleg", Json{{"hessian", "hybrid"}})->minimize(problem, plain, tight(), nullptr);
+  ASSERT_TRUE(ref.converged) << ref.status;
+  solvers::Trace trace;
+  const auto rep = by_name("tr-dogleg", Json{{"hessian", "hybrid"}, {"extrapolate", 4}})
+                       ->minimize(problem, extrapolated, tight(), &trace);
+  ASSERT_TRUE(rep.converged) << rep.status;
+  EXPECT_EQ(counter(ref, "extrapolations"), 0);
+  EXPECT_GT(counter(rep, "extrapolations"), 0) << "the test should exercise doublings";
+  EXPECT_LE((extrapolated - plain).norm(), 1e-7);
+  for (size_t k = 1; k < trace.size(); ++k)
+    EXPECT_LE(trace[k].energy, trace[k - 1].energy + 1e-13 * std::abs(trace[k - 1].energy)) << k;
+}
+
 TEST(TrustRegion, AcceptedEnergiesDecreaseAndRejectionsShrinkTheRadius) {
   auto t = rosenbrock_chain();
   for (const auto qp : {solvers::TrQp::Dogleg, solvers::TrQp::SteihaugCg}) {

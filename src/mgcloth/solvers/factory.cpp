@@ -185,6 +185,7 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
   p.radius_shift = r.choice("shift", p.radius_shift ? "radius" : "factorize", {"factorize", "radius"}) == "radius";
+  p.extrapolate = r.integer("extrapolate", p.extrapolate, 0, 30);
   return p;
 }
 Json write_trust_region(const TrustRegionParams& p) {
@@ -200,7 +201,8 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact"},
             {"shrink_from_step", p.shrink_from_step},
             {"shift_bisections", p.shift_bisections},
-            {"shift", p.radius_shift ? "radius" : "factorize"}};
+            {"shift", p.radius_shift ? "radius" : "factorize"},
+            {"extrapolate", p.extrapolate}};
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;

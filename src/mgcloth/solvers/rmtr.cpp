@@ -397,6 +397,7 @@ void Rmtr::accumulate() {
     C.rejected += t.rejected;
     C.cholmod_fallbacks += t.cholmod_fallbacks;
     C.projected_models += t.projected_models;
+    C.extrapolations += t.extrapolations;
     C.factorizations += t.factorizations;
   }
 }
@@ -659,6 +660,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     if (m_params.coarse_start == "best" && k > 0) rep.counters.push_back({fmt::format("level{}_starts_kept", k), c.starts_kept});
     rep.counters.push_back({fmt::format("level{}_cholmod_fallbacks", k), c.cholmod_fallbacks});
     rep.counters.push_back({fmt::format("level{}_projected_models", k), c.projected_models});
+    rep.counters.push_back({fmt::format("level{}_extrapolations", k), c.extrapolations});
     rep.counters.push_back({fmt::format("level{}_factorizations", k), c.factorizations});
   }
   m_start_gradient = nullptr;

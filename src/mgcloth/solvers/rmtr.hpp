@@ -84,6 +84,7 @@ struct RmtrLevelCounters {
   int starts_kept = 0;             ///< coarse_start "best": visits that started from the last visit's end state
   int cholmod_fallbacks = 0;       ///< dogleg steps whose Hessian needed a shift H + λI (it was indefinite)
   int projected_models = 0;        ///< "hessian": "hybrid": dogleg steps on the projected Hessian
+  int extrapolations = 0;
   int corrections_backtracked = 0; ///< corrections_accepted that were rejected whole and accepted as x + αs, α < 1
   int factorizations = 0;          ///< numeric CHOLMOD factorizations of the dogleg, shifted retries included
 };

@@ -225,6 +225,21 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       ++m_counters.accepted;
       x.swap(m_trial);
       f = f_trial;
+      if (p.extrapolate > 0 && it.rho > 1.0 && !have_trial_gradient) {
+        double scale = 1.0;
+        for (int j = 0; j < p.extrapolate; ++j) {
+          m_trial = x + scale * qp.s;  // doubles the total step
+          const double fe = h.value(m_trial);
+          ++m_counters.energy_evaluations;
+          if (!(std::isfinite(fe) && fe < f)) break;
+          x.swap(m_trial);
+          it.actual += f - fe;
+          f = fe;
+          scale *= 2.0;
+          ++m_counters.extrapolations;
+        }
+        it.step_norm *= scale;
+      }
       const bool moved = control.project && control.project(x) > 0;
       if (moved) {
         f = h.value(x);
@@ -318,6 +333,7 @@ SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, T
                   {"factorizations", c.factorizations},
                   {"cholmod_fallbacks", c.cholmod_fallbacks},
                   {"projected_models", c.projected_models},
+                  {"extrapolations", c.extrapolations},
                   {"final_radius", radius}};
   return rep;
 }

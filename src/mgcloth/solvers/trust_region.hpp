@@ -57,6 +57,11 @@ struct TrustRegionParams {
   /// usual practice): after an interior (Newton) step far inside a radius that has grown to 1e15, halving Δ alone
   /// would need tens of rejected iterations before the radius constrains anything again.
   bool shrink_from_step = false;
+  /// Beyond the paper: after an accepted step whose actual decrease exceeded the model's (ρ > 1, the model is too
+  /// stiff along s, as the PSD-projected Hessian of "hybrid" is where the exact one has negative curvature), try
+  /// doubling the total step up to this many times, keeping each doubling that lowers the energy (one energy
+  /// evaluation each). 0 = off.
+  int extrapolate = 0;
 };
 
 /// Alg. 4.3, line 2: γ1Δ for ρ < η1, Δ for ρ ∈ [η1, η2], γ2Δ (at most Δ_max) for ρ > η2.
@@ -101,6 +106,7 @@ struct TrCounters {
   int factorizations = 0;     ///< numeric CHOLMOD factorizations (dogleg), shifted retries included
   int cholmod_fallbacks = 0;  ///< dogleg preparations whose H was not positive definite
   int projected_models = 0;   ///< "hybrid": points where the exact H was indefinite and the projected one was used
+  int extrapolations = 0;     ///< doublings of accepted steps kept (TrustRegionParams::extrapolate)
 };
 
 /// One Local_TR iteration, accepted or rejected.
