@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   mgcloth::cli::add_info_command(app);
   mgcloth::cli::add_hierarchy_command(app);
   mgcloth::cli::add_bench_command(app);
+  mgcloth::cli::add_view_command(app);
+  mgcloth::cli::add_render_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -23,6 +25,8 @@ int main(int argc, char** argv) {
   }
   try {
     if (CLI::App* bench = app.get_subcommand("bench"); bench->parsed()) return mgcloth::cli::run_bench_command(*bench);
+    if (app.got_subcommand("view")) return mgcloth::cli::run_view_command();
+    if (app.got_subcommand("render")) return mgcloth::cli::run_render_command();
     return mgcloth::cli::dispatch(app);
   } catch (const mgcloth::Error& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());

@@ -183,10 +183,10 @@ void split_vertices(const Faces& faces, Index num_v, TriMesh& mesh, std::vector<
   }
 }
 
-/// Material coordinates for a mesh without vt: the positions in an orthonormal frame of the best-fit plane.
-/// The frame's first axis is the world axis closest to the plane (so a mesh in z = 0 gets u = (x, y)) and its
-/// normal points to the side the faces wind around, so the faces come out counter-clockwise.
-Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::string& source) {
+}  // namespace
+
+Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::string& source, std::string_view what,
+                     std::string_view remedy) {
   const Vec3 centroid = x.rowwise().mean();
   const Mat3X d = x.colwise() - centroid;
   Eigen::SelfAdjointEigenSolver<Mat3> eig(d * d.transpose());
@@ -194,9 +194,8 @@ Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::st
   const double diagonal = (x.rowwise().maxCoeff() - x.rowwise().minCoeff()).norm();
   const double off_plane = (normal.transpose() * d).cwiseAbs().maxCoeff();
   if (off_plane > kPlanarityTolerance * diagonal)
-    throw_input_error("{}: has no texture coordinates (vt) and is not planar (a vertex lies {:.3g} from the best-fit "
-                      "plane, bounding-box diagonal {:.3g}); cannot infer material coordinates",
-                      source, off_plane, diagonal);
+    throw_input_error("{}: {} (a vertex lies {:.3g} from the best-fit plane, bounding-box diagonal {:.3g}); {}", source,
+                      what, off_plane, diagonal, remedy);
 
   for (int a = 0; a < 3; ++a)  // snap an axis-aligned plane so that u copies x exactly
     if (std::abs(normal[a]) > 1.0 - 1e-14) normal = Vec3::Unit(a) * (normal[a] > 0 ? 1.0 : -1.0);
@@ -215,7 +214,6 @@ Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::st
   return u;
 }
 
-}  // namespace
 
 TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool check) {
   const std::string source = path.string();
@@ -263,7 +261,8 @@ TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool 
     for (Index i = 0; i < n; ++i)
       for (int k = 0; k < 2; ++k) mesh.u(k, i) = material_scale * attrib.texcoords[2 * vertex_vt[i] + k];
   } else {
-    mesh.u = flatten_planar(mesh.x, mesh.tris, source);
+    mesh.u = flatten_planar(mesh.x, mesh.tris, source, "has no texture coordinates (vt) and is not planar",
+                            "cannot infer material coordinates");
   }
   if (check) validate(mesh, source);
   return mesh;

@@ -2,8 +2,17 @@
 #include <mgcloth/mesh/tri_mesh.hpp>
 
 #include <filesystem>
+#include <string_view>
 
 namespace mgcloth::mesh {
+
+/// Material coordinates for a mesh given without them (an OBJ without vt, arrays without uv): the positions in an
+/// orthonormal frame of the best-fit plane. The frame's first axis is the world axis closest to the plane (so a
+/// mesh in z = 0 gets u = (x, y) exactly) and its normal points to the side the faces wind around, so the faces
+/// come out counter-clockwise. A mesh off its plane by more than 1e-6 of its bounding-box diagonal is an
+/// InputError "<source>: <what> (a vertex lies …); <remedy>".
+Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::string& source, std::string_view what,
+                     std::string_view remedy);
 
 /// Reads a triangle (or polygon, fan-triangulated) OBJ. With `vt`, material coordinates are the vt values times
 /// `material_scale` (metres per UV unit), and vertices are split where a position has several vt (UV seams).

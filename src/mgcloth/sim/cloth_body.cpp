@@ -16,7 +16,12 @@ VecX lumped_vertex_area(const mesh::TriMesh& mesh) {
 
 namespace {
 
-mesh::TriMesh load_mesh(const ClothSpec& spec) {
+mesh::TriMesh load_mesh(const ClothSpec& spec, const mesh::TriMesh* given) {
+  if (given) {
+    mesh::TriMesh m = *given;
+    mesh::validate(m, "mesh arrays");
+    return m;
+  }
   if (!spec.mesh.file.empty()) return mesh::read_obj(spec.mesh.file, spec.mesh.material_scale);
   if (spec.mesh.generator == "tube") return mesh::make_tube(spec.mesh.tube);
   return mesh::make_rectangle(spec.mesh.rectangle);
@@ -51,9 +56,10 @@ std::vector<Index> select_pins(const PinSpec& p, const mesh::TriMesh& m, const s
 }  // namespace
 
 ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
-                     const physics::ContactParams& contact, const Vec3& gravity, bool projective)
+                     const physics::ContactParams& contact, const Vec3& gravity, bool projective,
+                     const mesh::TriMesh* mesh)
     : m_name(spec.name),
-      m_mesh(load_mesh(spec)),
+      m_mesh(load_mesh(spec, mesh)),
       m_material_scale(spec.mesh.material_scale),
       m_material(spec.material),
       m_gravity(gravity),
@@ -180,6 +186,14 @@ std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::Tria
 }
 
 std::vector<Vec3> ClothBody::pin_targets(double t) const {
+  if (!m_script_to.empty()) {
+    if (!(t > m_script_t0)) return m_script_from;
+    if (t >= m_script_t1) return m_script_to;
+    const double s = (t - m_script_t0) / (m_script_t1 - m_script_t0);
+    std::vector<Vec3> targets(m_script_to.size());
+    for (size_t p = 0; p < targets.size(); ++p) targets[p] = m_script_from[p] + s * (m_script_to[p] - m_script_from[p]);
+    return targets;
+  }
   std::vector<Vec3> targets(m_pin_vertices.size());
   for (size_t p = 0; p < targets.size(); ++p) {
     const PinSpec& s = m_pin_specs[m_pin_spec[p]];
@@ -189,6 +203,22 @@ std::vector<Vec3> ClothBody::pin_targets(double t) const {
     targets[p] = m_pin_rest[p] + offset;
   }
   return targets;
+}
+
+void ClothBody::set_pin_targets(const std::vector<Vec3>& targets, double t0, double t1) {
+  if (targets.size() != m_pin_vertices.size())
+    throw_input_error("cloth \"{}\": {} pin targets given for {} pinned vertices", m_name, targets.size(),
+                      m_pin_vertices.size());
+  for (size_t p = 0; p < targets.size(); ++p)
+    if (!targets[p].allFinite())
+      throw_input_error("cloth \"{}\": pin target {} (vertex {}) is not finite", m_name, p, m_pin_vertices[p]);
+  if (!(t1 > t0)) throw_error("cloth \"{}\": pin targets must be reached after t0 = {} (got t1 = {})", m_name, t0, t1);
+  // Evaluated before the switch: the targets start where the pins pulled at t0, so they move without a jump.
+  std::vector<Vec3> from = pin_targets(t0);
+  m_script_from = std::move(from);
+  m_script_to = targets;
+  m_script_t0 = t0;
+  m_script_t1 = t1;
 }
 
 VecX ClothBody::set_step(LevelObjective& lv, VecX y, double h, double t_next, const std::vector<Vec3>& targets) {

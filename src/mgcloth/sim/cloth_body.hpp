@@ -18,8 +18,10 @@ class ClothBody {
   /// `projective`: build the Projective Dynamics form of the energy (NonlinearSolver::projective()): PD strain
   /// membrane, quadratic bending (unless the material has none) and PD contact instead of the elastic membrane,
   /// the material's bending model and the cubic contact penalty (physics/projective.hpp).
+  /// `mesh`: the cloth's mesh given in memory by a program (the Python module's arrays), used instead of the spec's
+  /// file or generator; it is validated (mesh::validate) like a mesh read from a file.
   ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles, const physics::ContactParams& contact,
-            const Vec3& gravity, bool projective = false);
+            const Vec3& gravity, bool projective = false, const mesh::TriMesh* mesh = nullptr);
 
   const std::string& name() const { return m_name; }
   const mesh::TriMesh& mesh() const { return m_mesh; }
@@ -46,7 +48,12 @@ class ClothBody {
   void finish_step(VecX& x_new, double h);
   /// The step's end computed elsewhere (a device solver's NonlinearSolver::finish_step): the new state as it is.
   void accept_step(const VecX& x_new, const VecX& v_new);
+  /// Where the pins pull at time t: the scene's pin motion, or the targets a program set (set_pin_targets).
   std::vector<Vec3> pin_targets(double t) const;
+  /// Scripted pin targets (pinned_vertices() order), set between steps by a program driving the simulation: from
+  /// t0 the targets move linearly from pin_targets(t0) to `targets`, reached at t1 > t0, and stay there; the
+  /// scene's pin motion no longer applies. InputError when the count is wrong or a target is not finite.
+  void set_pin_targets(const std::vector<Vec3>& targets, double t0, double t1);
   /// The cloth's mesh hierarchy (Wang 2018 App. B), built on first use with the pinned vertices kept.
   const hierarchy::TriangleHierarchy& hierarchy(const hierarchy::HierarchyParams& params);
   /// The step's objective rediscretized on levels 1..H of hierarchy(params) (entry l is level l + 1), for
@@ -97,6 +104,9 @@ class ClothBody {
   std::vector<size_t> m_pin_spec;  ///< which PinSpec each pinned vertex came from
   std::vector<PinSpec> m_pin_specs;
   std::vector<geometry::PointCurve> m_pin_curves;
+  /// set_pin_targets(): targets at m_script_t0 and at m_script_t1 (empty: the scene's pin motion).
+  std::vector<Vec3> m_script_from, m_script_to;
+  double m_script_t0 = 0.0, m_script_t1 = 0.0;
   std::unique_ptr<hierarchy::TriangleHierarchy> m_hierarchy;
 };
 

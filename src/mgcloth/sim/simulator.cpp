@@ -3,18 +3,68 @@
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <algorithm>
 #include <memory>
 
 namespace mgcloth::sim {
 
-Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
+SteerableMotion::SteerableMotion(std::shared_ptr<const geometry::RigidMotion> scene_motion)
+    : m_scene(std::move(scene_motion)) {}
+
+geometry::KeyframedMotion SteerableMotion::segment(double t) const {
+  // The first key at or after t.
+  const auto k1 = std::lower_bound(m_keys.begin(), m_keys.end(), t,
+                                   [](const geometry::Keyframe& key, double time) { return key.time < time; });
+  return geometry::KeyframedMotion({*(k1 - 1), *k1});
+}
+
+geometry::Pose SteerableMotion::pose(double t) const {
+  if (m_keys.empty() || !(t > m_keys.front().time)) return m_scene ? m_scene->pose(t) : geometry::Pose{};
+  if (t >= m_keys.back().time) return m_keys.back().pose;
+  return segment(t).pose(t);
+}
+
+void SteerableMotion::velocity(double t, Vec3& linear, Vec3& angular) const {
+  linear.setZero();
+  angular.setZero();
+  if (m_keys.empty() || !(t > m_keys.front().time)) {
+    if (m_scene) m_scene->velocity(t, linear, angular);
+    return;
+  }
+  if (t > m_keys.back().time) return;
+  // KeyframedMotion's velocity is right-continuous (zero at its last key), but the step that ends at a key moved
+  // along the segment before it; the velocity is constant on a segment, so take it at the segment's start.
+  const auto k1 = std::lower_bound(m_keys.begin(), m_keys.end(), t,
+                                   [](const geometry::Keyframe& key, double time) { return key.time < time; });
+  segment(t).velocity((k1 - 1)->time, linear, angular);
+}
+
+void SteerableMotion::steer(double t0, double t1, const geometry::Pose& target) {
+  if (!(t1 > t0)) throw_error("steered obstacle: the pose must be reached after t0 = {} (got t1 = {})", t0, t1);
+  const geometry::Pose now = pose(t0);
+  (void)geometry::KeyframedMotion({{t0, now}, {t1, target}});  // a zero or non-finite rotation fails here, not in a step
+  geometry::Pose unit = target;
+  unit.rotation.normalize();
+  while (!m_keys.empty() && m_keys.back().time >= t0) m_keys.pop_back();
+  m_keys.push_back({t0, now});
+  m_keys.push_back({t1, unit});
+}
+
+Simulator::Simulator(Scene scene) : Simulator(std::move(scene), {}) {}
+
+Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::TriMesh>>& meshes)
+    : m_scene(std::move(scene)) {
   if (m_scene.threads > 0) set_num_threads(m_scene.threads);
+  if (meshes.size() > m_scene.cloths.size())
+    throw InputError(fmt::format("{}: {} meshes given for {} cloths", m_scene.file, meshes.size(), m_scene.cloths.size()));
   for (size_t i = 0; i < m_scene.obstacles.size(); ++i) {
     try {
       m_obstacles.push_back(m_scene.obstacles[i].build());
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: obstacles[{}] (\"{}\"): {}", m_scene.file, i, m_scene.obstacles[i].name, e.what()));
     }
+    m_steering.push_back(std::make_shared<SteerableMotion>(m_obstacles.back().motion));
+    m_obstacles.back().motion = m_steering.back();
   }
   for (size_t i = 0; i < m_scene.cloths.size(); ++i) {
     const auto& c = m_scene.cloths[i];
@@ -22,7 +72,8 @@ Simulator::Simulator(Scene scene) : m_scene(std::move(scene)) {
     m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
       m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
-                                                     m_solvers.back()->projective()));
+                                                     m_solvers.back()->projective(),
+                                                     i < meshes.size() ? meshes[i].get() : nullptr));
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
@@ -161,6 +212,19 @@ std::vector<StepStats> Simulator::advance_frame() {
   }
   ++m_frame;
   return out;
+}
+
+void Simulator::set_pin_targets(size_t c, const std::vector<Vec3>& targets) {
+  if (c >= m_cloths.size()) throw_input_error("cloth {} out of range (the scene has {} cloths)", c, m_cloths.size());
+  m_cloths[c]->set_pin_targets(targets, time(), time() + m_scene.frame_time);
+}
+
+void Simulator::set_obstacle_pose(size_t o, const geometry::Pose& pose) {
+  if (o >= m_steering.size()) throw_input_error("obstacle {} out of range (the scene has {} obstacles)", o, m_steering.size());
+  if (!pose.translation.allFinite())
+    throw_input_error("obstacle \"{}\": position must be finite (got [{}, {}, {}])", m_obstacles[o].name,
+                      pose.translation.x(), pose.translation.y(), pose.translation.z());
+  m_steering[o]->steer(time(), time() + m_scene.frame_time, pose);
 }
 
 void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v) {

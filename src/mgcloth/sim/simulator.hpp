@@ -24,11 +24,35 @@ struct StepStats {
   std::vector<ProbeReading> probes;
 };
 
+/// An obstacle's motion that a program driving the simulation can steer between steps (Simulator::set_obstacle_pose,
+/// for scripted or interactive animation): the scene's motion until the first steer, then keyframes through the
+/// poses set (KeyframedMotion's interpolation), held after the last. Velocities are those of the segment that ends
+/// at t, so the step that reaches a pose sees the obstacle moving (friction at the step's end).
+class SteerableMotion final : public geometry::RigidMotion {
+ public:
+  explicit SteerableMotion(std::shared_ptr<const geometry::RigidMotion> scene_motion);
+  geometry::Pose pose(double t) const override;
+  void velocity(double t, Vec3& linear, Vec3& angular) const override;
+  /// From t0 the obstacle moves from pose(t0) to `target`, reached at t1 > t0; keys after t0 (a pose set earlier
+  /// for a step not yet taken) are replaced.
+  void steer(double t0, double t1, const geometry::Pose& target);
+
+ private:
+  /// The keyframe segment [k0, k1] with k0.time < t <= k1.time (t inside the keyed span), as its own motion.
+  geometry::KeyframedMotion segment(double t) const;
+
+  std::shared_ptr<const geometry::RigidMotion> m_scene;
+  std::vector<geometry::Keyframe> m_keys;  ///< empty: not steered
+};
+
 /// The time loop: every step minimizes each cloth's incremental potential with the scene's solver
 /// (ARCHITECTURE.md data flow), then projects contacts and filters friction.
 class Simulator {
  public:
   explicit Simulator(Scene scene);
+  /// `meshes`: per cloth of the scene, a mesh given in memory by a program (the Python module's arrays) that
+  /// replaces the cloth's mesh file or generator; missing or null entries keep the scene's.
+  Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::TriMesh>>& meshes);
 
   const Scene& scene() const { return m_scene; }
   std::vector<std::unique_ptr<ClothBody>>& cloths() { return m_cloths; }
@@ -59,12 +83,22 @@ class Simulator {
   /// Keep the solver's per-iteration trace (energy, gradient norm, wall time) in every StepStats.
   void set_record_trace(bool on) { m_record_trace = on; }
 
+  /// Scripted animation between frames (the Python module): cloth c's pins pull towards `targets` (its
+  /// pinned_vertices() order), reached at the end of the next frame, moving linearly from where they pull now; the
+  /// scene's pin motion no longer applies. Not kept in checkpoints.
+  void set_pin_targets(size_t c, const std::vector<Vec3>& targets);
+  /// Obstacle o moves to `pose` over the next frame (SteerableMotion) and stays there. Not kept in checkpoints.
+  void set_obstacle_pose(size_t o, const geometry::Pose& pose);
+
   /// State for checkpoints: frame, step, and x and v of every cloth, then of every shell.
   void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
 
  private:
   Scene m_scene;
   std::vector<geometry::Obstacle> m_obstacles;
+  /// The motion of each obstacle, shared with every copy of it (cloth bodies, contact terms) so that a steer
+  /// reaches them all.
+  std::vector<std::shared_ptr<SteerableMotion>> m_steering;
   std::vector<std::unique_ptr<ClothBody>> m_cloths;
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
   std::vector<std::unique_ptr<ShellBody>> m_shells;
