@@ -7,7 +7,7 @@ asked, into the same output folder. Positions and velocities come back as read-o
     import mgcloth, numpy as np
     V, F = mgcloth.grid(1.0, 1.0, 2500)
     sim = mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F, pins=[0, 49])],
-                             obstacles=[mgcloth.Sphere(0.3, center=(0.5, 0.5, -0.5))], dt=1 / 30)
+                             obstacles=[mgcloth.Sphere(0.3, center=(0.5, 0.5, -0.5))], dt=1 / 30, rel_grad=1e-3)
     for _ in range(30):
         sim.step()
     sim.x  # (2500, 3) positions
