@@ -193,3 +193,24 @@ TEST(Simulation, TubeGarmentStaysStitchedOnASphere) {
   EXPECT_LT(hem, 0.2);
   EXPECT_GT(hem, 0.1);
 }
+
+TEST(Simulation, AClothStartingInsideAnObstacleIsAnInputErrorNamingBoth) {
+  // The drape with its cloth lowered through the sphere's centre: projecting it out would pile vertices onto the
+  // surface, so the scene is refused before any solve, naming the cloth, the obstacle and the deepest vertex.
+  const std::string path = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/drape_sphere.json";
+  Json j = load_json(path);
+  j["cloths"][0]["mesh"]["vertices"] = 400;
+  j["cloths"][0]["transform"]["translation"] = {-0.5, -0.5, 0.0};
+  const sim::Scene scene = sim::parse_scene(j, path, fs::path(path).parent_path());
+  try {
+    sim::Simulator s(scene);
+    FAIL() << "a cloth through the sphere was accepted";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("cloths[0]"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("starts inside obstacle \"" + scene.obstacles[0].name + "\""), std::string::npos) << msg;
+    EXPECT_NE(msg.find("deepest vertex"), std::string::npos) << msg;
+  }
+  // Resting within the contact layer is allowed: the shipped drape starts above the sphere.
+  EXPECT_NO_THROW(sim::Simulator(shipped("drape_sphere", 400, 1)));
+}

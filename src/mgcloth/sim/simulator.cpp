@@ -77,6 +77,7 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
+    check_start_outside_obstacles(i);
   }
   for (size_t i = 0; i < m_scene.shells.size(); ++i) {
     const auto& spec = m_scene.shells[i];
@@ -86,6 +87,32 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: shells[{}] (\"{}\"): {}", m_scene.file, i, spec.name, e.what()));
     }
+  }
+}
+
+void Simulator::check_start_outside_obstacles(size_t c) const {
+  // A cloth that starts deep inside an obstacle cannot be simulated: projecting its vertices out piles them onto the
+  // surface (degenerate triangles, non-finite bending), and the first solve fails far from the cause. Within the
+  // contact layer the projection is a small push, so only depths beyond the layer's thickness are refused.
+  const ClothBody& body = *m_cloths[c];
+  const VecX& x = body.x();
+  const double limit = m_scene.contact.thickness;
+  for (size_t o = 0; o < m_obstacles.size(); ++o) {
+    const hd::ObstacleData od = m_obstacles[o].data(0.0);
+    Index count = 0, worst = -1;
+    double worst_phi = 0.0;
+    for (Index v = 0; v < x.size() / 3; ++v) {
+      const double phi = hd::sdf_distance(od.kind, od.param, hd::to_local(od, hd::load3(x.data() + 3 * v)));
+      if (!(phi < -limit)) continue;
+      ++count;
+      if (phi < worst_phi) worst_phi = phi, worst = v;
+    }
+    if (count > 0)
+      throw InputError(fmt::format("{}: cloths[{}] (\"{}\") starts inside obstacle \"{}\": {} vertices lie deeper than the "
+                                   "contact thickness ({} m), the deepest vertex {} at ({:.4g}, {:.4g}, {:.4g}), {:.3g} m "
+                                   "below the surface; move the cloth (transform) or the obstacle",
+                                   m_scene.file, c, body.name(), m_obstacles[o].name, count, limit, worst,
+                                   x[3 * worst], x[3 * worst + 1], x[3 * worst + 2], -worst_phi));
   }
 }
 

@@ -95,6 +95,8 @@ class Simulator {
 
  private:
   Scene m_scene;
+  /// InputError when cloth c starts deeper inside an obstacle than the contact thickness.
+  void check_start_outside_obstacles(size_t c) const;
   std::vector<geometry::Obstacle> m_obstacles;
   /// The motion of each obstacle, shared with every copy of it (cloth bodies, contact terms) so that a steer
   /// reaches them all.
