@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "cli_run.hpp"
+
 #include <gtest/gtest.h>
 
 #include <regex>
@@ -23,21 +25,9 @@
 namespace fs = std::filesystem;
 
 namespace {
-struct Result {
-  int code = -1;
-  std::string out;  ///< stdout and stderr together
-};
+using Result = mgcloth::test::CliResult;
 
-Result run(const std::string& args) {
-  const std::string cmd = std::string(MGCLOTH_CLI) + " " + args + " 2>&1";
-  Result r;
-  FILE* p = popen(cmd.c_str(), "r");
-  std::array<char, 4096> buf;
-  while (size_t n = fread(buf.data(), 1, buf.size(), p)) r.out.append(buf.data(), n);
-  const int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+Result run(const std::string& args) { return mgcloth::test::run_cli(args); }
 
 class Cli : public ::testing::Test {
  protected:
