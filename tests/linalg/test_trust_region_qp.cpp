@@ -731,3 +731,61 @@ TEST(TrustRegionQpExact, RefusesLargeProblems) {
   ExactTrustRegion exact;
   EXPECT_THROW(exact.prepare(H, VecX::Zero(3 * points)), Error);
 }
+
+// The exact model's CG preconditioned by another SPD matrix (hessian "hybrid_pcg"): with the matrix itself as
+// preconditioner the first iterate is the Newton point; with another one it still converges to it.
+TEST(TrustRegionQpPcg, PreconditionedCgOfAnSpdMatrixConvergesToTheNewtonPoint) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const BlockMatrix3 H = random_symmetric(20, seed, 0.0);
+    const VecX g = random_vector(60, 100 + seed);
+    const VecX newton = Eigen::MatrixXd(H.to_sparse()).ldlt().solve(-g);
+    CholmodSolver exact, other;
+    ASSERT_TRUE(exact.factorize(H));
+    ASSERT_TRUE(other.factorize(random_symmetric(20, seed, -5.0)));  // H + 5I
+    const auto one = preconditioned_steihaug_cg(H, g, 1e6, 0, 1e-12, exact);
+    EXPECT_EQ(one.reason, QpStop::Converged);
+    EXPECT_LE(one.iterations, 2);
+    EXPECT_LE((one.s - newton).norm(), 1e-9 * newton.norm());
+    const auto many = preconditioned_steihaug_cg(H, g, 1e6, 0, 1e-12, other);
+    EXPECT_EQ(many.reason, QpStop::Converged);
+    EXPECT_GT(many.iterations, 1);
+    EXPECT_LE((many.s - newton).norm(), 1e-9 * newton.norm());
+    EXPECT_NEAR(many.model_decrease, -0.5 * g.dot(newton), 1e-10 * std::abs(g.dot(newton)));
+  }
+}
+
+// At an indefinite H, preconditioned by P ⪰ H (as the element-projected Hessian is): inside the ball, at least the
+// Cauchy decrease, at least the decrease of the exact model's minimizer along −P⁻¹g (where that direction has
+// positive curvature: the step "hybrid" takes, scaled to the exact model's minimum), and a finite step even for a
+// radius of 1e20.
+TEST(TrustRegionQpPcg, IndefiniteStepsStayInsideTheBallAndBeatTheProjectedDirection) {
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const BlockMatrix3 H = random_symmetric(20, seed, 14.0), P = random_symmetric(20, seed, 0.0);  // P = H + 14I
+    ASSERT_LT(eigenvalues(H)[0], 0.0);
+    const VecX g = random_vector(60, 200 + seed);
+    CholmodSolver precond;
+    ASSERT_TRUE(precond.factorize(P));
+    VecX d;
+    precond.solve(g, d);
+    d = -d;
+    std::vector<double> radii = kRadii;
+    radii.push_back(1e20);
+    for (double delta : radii) {
+      const auto r = preconditioned_steihaug_cg(H, g, delta, 0, 1e-12, precond);
+      EXPECT_LE(r.s.norm(), delta * (1.0 + 1e-12)) << delta;
+      EXPECT_NEAR(r.norm, r.s.norm(), 1e-12 * (1.0 + r.norm));
+      EXPECT_NEAR(r.model_decrease, model_decrease(H, g, r.s), 1e-10 * std::abs(r.model_decrease));
+      const double cauchy = cauchy_point(H, g, delta).model_decrease;
+      EXPECT_GE(r.model_decrease, cauchy - 1e-12 * std::abs(cauchy)) << delta;
+      // m(τd) over 0 < τ ≤ Δ/‖d‖.
+      const double gd = g.dot(d), dHd = d.dot(H * d), tmax = delta / d.norm();
+      const double t = dHd > 0.0 ? std::min(tmax, -gd / dHd) : tmax;
+      if (dHd > 0.0) {  // where dᵀHd ≤ 0 the first iterate stops at ‖d‖, short of a large radius
+        const double along = model_decrease(H, g, t * d);
+        EXPECT_GE(r.model_decrease, along - 1e-12 * std::abs(along)) << delta;
+      }
+      EXPECT_TRUE(r.s.allFinite());
+      EXPECT_LT(r.s.norm(), 1e4) << delta;
+    }
+  }
+}

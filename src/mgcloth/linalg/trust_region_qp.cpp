@@ -256,6 +256,75 @@ QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max
   return out;
 }
 
+QpResult preconditioned_steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
+                                    const CholmodSolver& precond, const NormMetric* metric) {
+  check_metric(metric, static_cast<Index>(g.size()), "preconditioned_steihaug_cg");
+  const Index n = static_cast<Index>(g.size());
+  if (max_iters <= 0) max_iters = 3 * static_cast<int>(n);
+  QpResult out;
+  out.reason = QpStop::MaxIters;
+  const double g_norm = g.norm();
+  if (g_norm == 0.0) {
+    out.s = VecX::Zero(n);
+    out.reason = QpStop::Converged;
+    return out;
+  }
+  const auto dot = [&](const VecX& a, const VecX& b) { return metric ? metric->dot(a, b) : a.dot(b); };
+  const double tol = rel_tol * g_norm;
+  VecX z = VecX::Zero(n), r = g, y, d, Hd;
+  precond.solve(r, y);  // Nocedal-Wright Alg. 5.3 with P for M; the constraint keeps its own norm
+  d = -y;
+  const double d0_norm = std::sqrt(dot(d, d));
+  double ry = r.dot(y);
+  if (!(ry > 0.0) || !std::isfinite(ry)) return cauchy_point(H, g, delta, metric);  // P not SPD in practice
+  int j = 0;
+  for (; j < max_iters; ++j) {
+    H.multiply(d, Hd);
+    const double dHd = d.dot(Hd);
+    const double zz = dot(z, z), zd = dot(z, d), dd = dot(d, d);
+    if (!(dHd > 0.0)) {
+      // The model is unbounded along ±d: to the radius (Steihaug), but no further than ten times the longer of
+      // the step so far and the projected Newton step −P⁻¹g, where Newton steps have let the radius grow to 1e20.
+      const double reach = std::min(delta, 10.0 * std::max(std::sqrt(zz), d0_norm));
+      const auto [lo, hi] = boundary_roots(zz, zd, dd, reach);
+      const double rd = r.dot(d);
+      const auto change = [&](double tau) { return tau * rd + 0.5 * tau * tau * dHd; };
+      z += (change(lo) < change(hi) ? lo : hi) * d;
+      out.reason = QpStop::NegativeCurvature;
+      ++j;
+      break;
+    }
+    const double alpha = ry / dHd;
+    if (zz + alpha * (2.0 * zd + alpha * dd) >= delta * delta) {
+      z += boundary_roots(zz, zd, dd, delta).second * d;
+      out.reason = QpStop::Boundary;
+      ++j;
+      break;
+    }
+    z += alpha * d;
+    r += alpha * Hd;
+    if (r.norm() <= tol) {
+      out.reason = QpStop::Converged;
+      ++j;
+      break;
+    }
+    precond.solve(r, y);
+    const double ry_next = r.dot(y);
+    d = -y + (ry_next / ry) * d;
+    ry = ry_next;
+  }
+  out.iterations = j;
+  out.norm = clamp_to_ball(z, delta, metric);
+  out.model_decrease = model_decrease(H, g, z);
+  QpResult cauchy = cauchy_point(H, g, delta, metric);
+  if (!(out.model_decrease >= cauchy.model_decrease)) {
+    cauchy.iterations = j;
+    return cauchy;
+  }
+  out.s = std::move(z);
+  return out;
+}
+
 ShiftedFactorization factorize_shifted(CholmodSolver& solver, const BlockMatrix3& H, int max_attempts, double start,
                                        int bisections, bool* not_definite) {
   // CHOLMOD "factorizes" a matrix with NaN entries (its pivot tests compare false) and the solve returns NaN.
