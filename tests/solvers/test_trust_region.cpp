@@ -274,28 +274,6 @@ TEST(TrustRegion, HybridHessianTakesTheProjectedModelOnlyWhereTheExactOneIsIndef
   EXPECT_GT(min_eigenvalue(*t.objective, hybrid), 0.0);
 }
 
-TEST(TrustRegion, HybridPcgSolvesTheExactModelWherePreconditionedAndKeepsTheMinimizer) {
-  // "hessian": "hybrid_pcg": at the compressed start's indefinite H the exact model's subproblem is solved by CG
-  // preconditioned by the projected Hessian (shifted here: this test energy has no projection of its own); near
-  // the hanging state H is positive definite and the dogleg's Newton steps finish. Same minimizer as the exact
-  // dogleg, energies decreasing, CG iterations counted.
-  auto t = hanging_chain();
-  auto problem = t.problem();
-  VecX exact = t.x0, pcg = t.x0;
-  const auto ref = by_name("tr-dogleg")->minimize(problem, exact, tight(), nullptr);
-  ASSERT_TRUE(ref.converged) << ref.status;
-  solvers::Trace trace;
-  const auto rep = by_name("tr-dogleg", Json{{"hessian", "hybrid_pcg"}})->minimize(problem, pcg, tight(), &trace);
-  ASSERT_TRUE(rep.converged) << rep.status;
-  EXPECT_GT(counter(rep, "projected_models"), 0);
-  EXPECT_LT(counter(rep, "projected_models"), counter(rep, "accepted"));
-  EXPECT_GT(counter(rep, "cg_iterations"), counter(rep, "projected_models"));
-  EXPECT_LE((pcg - exact).norm(), 1e-7);
-  EXPECT_GT(min_eigenvalue(*t.objective, pcg), 0.0);
-  for (size_t k = 1; k < trace.size(); ++k)
-    EXPECT_LE(trace[k].energy, trace[k - 1].energy + 1e-13 * std::abs(trace[k - 1].energy)) << k;
-}
-
 TEST(TrustRegion, ExtrapolatedStepsKeepTheMinimizerAndTheEnergyDecreasing) {
   // "extrapolate": where the model was too stiff along an accepted step (ρ > 1, the hybrid model's projected
   // Hessian on the compressed chain), doublings of the step that lower the energy are kept: the same minimizer,

@@ -82,18 +82,6 @@ QpResult cauchy_point(const BlockMatrix3& H, const VecX& g, double delta, const 
 QpResult steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
                      const NormMetric* metric = nullptr);
 
-/// Steihaug-Toint CG on the exact, possibly indefinite H preconditioned by the factor of another SPD matrix P ≈ H
-/// (beyond the paper; `precond` holds P's Cholesky factor): with P the element-wise PSD projection of H, P ⪰ H and
-/// P − H lives only on the elements with negative curvature, so P⁻¹H has clustered eigenvalues and a few
-/// iterations resolve the exact model where the projected Newton step −P⁻¹g alone is too short (its first
-/// iterate is already the exact model's minimizer along −P⁻¹g). The constraint is ‖s‖₂ ≤ Δ (‖s‖_M ≤ Δ with a
-/// metric), tested on each iterate; the iterates' norms need not grow monotonically in that norm, so the first
-/// crossing ends the solve. At negative curvature the step goes along ±d (the lower model) to the boundary of
-/// min(Δ, 10·max(‖s‖, ‖P⁻¹g‖)): a radius grown to 1e20 by Newton steps would otherwise send it to infinity. A result with less model decrease than the Cauchy point of the norm is
-/// replaced by it (SDC). Stops at ‖r‖₂ ≤ rel_tol·‖g‖₂ or after max_iters (≤ 0: 3·dofs).
-QpResult preconditioned_steihaug_cg(const BlockMatrix3& H, const VecX& g, double delta, int max_iters, double rel_tol,
-                                    const CholmodSolver& precond, const NormMetric* metric = nullptr);
-
 /// A smoothing step for the subproblem (beyond Kopaničáková 2019; the smoother of Wang 2018 §4.3): `sweeps`
 /// symmetric multi-color block Gauss-Seidel sweeps on H s = −g from s = 0, then the model's minimizer along that
 /// direction inside the ball (‖·‖_M with a metric). Unlike a few CG iterations, which reduce the error components of

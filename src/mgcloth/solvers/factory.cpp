@@ -159,10 +159,6 @@ Json write_fas(const FasParams& p) {
   return j;
 }
 
-const char* hessian_name(const TrustRegionParams& p) {
-  return p.psd_hessian ? "projected" : p.hybrid_pcg ? "hybrid_pcg" : p.hybrid_hessian ? "hybrid" : "exact";
-}
-
 TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.eta1 = r.number("eta1", p.eta1, 0.0, 1.0);
   p.eta2 = r.number("eta2", p.eta2, 0.0, 1.0);
@@ -175,17 +171,17 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.delta0 = r.number("delta0", p.delta0, 1e-300, 1e300);
   p.delta_max = r.number("delta_max", p.delta_max, 1e-300, 1e300);
   if (p.delta_max < p.delta0) r.fail("delta_max", fmt::format("must be >= delta0 ({})", p.delta0));
-  const std::string hessian = r.choice("hessian", hessian_name(p), {"exact", "projected", "hybrid", "hybrid_pcg"});
-  p.psd_hessian = hessian == "projected";
-  p.hybrid_hessian = hessian == "hybrid";
-  p.hybrid_pcg = hessian == "hybrid_pcg";
-  if (p.qp == TrQp::SteihaugCg || p.hybrid_pcg) {
+  if (p.qp == TrQp::SteihaugCg) {
     p.stcg_max_iters = r.integer("stcg_max_iters", p.stcg_max_iters, 0, 100'000'000);
     p.stcg_rel_tol = r.number("stcg_rel_tol", p.stcg_rel_tol, 0.0, 0.9);
   }
   p.stagnation_tol = r.number("stagnation_tol", p.stagnation_tol, 0.0, 1.0);
   p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
+  const std::string hessian = r.choice("hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact",
+                                       {"exact", "projected", "hybrid"});
+  p.psd_hessian = hessian == "projected";
+  p.hybrid_hessian = hessian == "hybrid";
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
   p.radius_shift = r.choice("shift", p.radius_shift ? "radius" : "factorize", {"factorize", "radius"}) == "radius";
@@ -202,12 +198,12 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"stagnation_tol", p.stagnation_tol},
             {"stagnation_delta", p.stagnation_delta},
             {"roundoff_tol", p.roundoff_tol},
-            {"hessian", hessian_name(p)},
+            {"hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact"},
             {"shrink_from_step", p.shrink_from_step},
             {"shift_bisections", p.shift_bisections},
             {"shift", p.radius_shift ? "radius" : "factorize"},
             {"extrapolate", p.extrapolate}};
-  if (p.qp == TrQp::SteihaugCg || p.hybrid_pcg) {
+  if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;
   }

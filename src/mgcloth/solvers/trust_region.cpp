@@ -70,14 +70,6 @@ void LocalTrustRegion::reset() {
 
 linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric) {
   ++m_counters.qp_calls;
-  if (m_params.qp == TrQp::Dogleg && m_pcg_model) {
-    const double tol = m_params.stcg_rel_tol > 0.0
-                           ? m_params.stcg_rel_tol
-                           : std::min(0.5, std::sqrt(m_g.norm() / std::max(initial_grad_norm, 1e-300)));
-    auto r = linalg::preconditioned_steihaug_cg(m_hessian, m_g, radius, m_params.stcg_max_iters, tol, m_precond, metric);
-    m_counters.cg_iterations += r.iterations;
-    return r;
-  }
   if (m_params.qp == TrQp::Dogleg) {
     const int before = m_dogleg.factorizations();  // the radius shift refactorizes
     auto r = m_dogleg.step(radius);
@@ -147,20 +139,8 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
         try {
           m_dogleg.set_shift_bisections(p.shift_bisections);
           m_dogleg.set_radius_shift(p.radius_shift);
-          m_pcg_model = false;
-          if (!(p.hybrid_hessian || p.hybrid_pcg) || p.psd_hessian) {
+          if (!p.hybrid_hessian || p.psd_hessian) {
             m_dogleg.prepare(m_hessian, m_g, control.metric);
-          } else if (p.hybrid_pcg) {
-            if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
-              // Indefinite: the exact model stays, and the projected Hessian, which differs from it only on the
-              // elements with negative curvature, preconditions its CG.
-              h.hessian(x, m_projected, true);
-              ++m_counters.hessian_assemblies;
-              ++m_counters.projected_models;
-              const auto f = linalg::factorize_shifted(m_precond, m_projected);
-              m_counters.factorizations += f.attempts;
-              m_pcg_model = true;
-            }
           } else if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
             // Indefinite: every element Hessian projected to positive semidefinite convexifies only where the
             // energy is concave, where H + λI damps every direction alike by λ.
@@ -218,8 +198,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
     bool have_trial_gradient = false, limiting_accuracy = false;
     double next = radius;
-    // The preconditioned CG's interior point at an indefinite H is a saddle of the model, not a Newton step.
-    const bool newton_step = qp.reason == linalg::QpStop::Converged && m_model_exact && !m_pcg_model &&
+    const bool newton_step = qp.reason == linalg::QpStop::Converged && m_model_exact &&
                              ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
     if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
       // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
@@ -239,10 +218,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     } else {
       // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
       it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
-      // A preconditioned-CG step may stop short of a radius that Newton steps grew to 1e20 (its negative-curvature
-      // reach): a rejection then shrinks from the step, or Δ ← γ1Δ would return the same step tens of times.
-      next = radius_update(p, it.rho, m_pcg_model && it.rho < p.eta1 ? std::min(radius, it.step_norm) : radius,
-                           it.step_norm);
+      next = radius_update(p, it.rho, radius, it.step_norm);
     }
     double step_taken = 0.0;
     if (it.accepted) {
@@ -303,9 +279,7 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
     logger().debug("tr {:4d}: {} rho = {:+.3e}  E = {:.12e}  |g| = {:.3e}  radius {:.3e} -> {:.3e}  |s| = {:.3e} ({}){}",
                    i + 1, it.accepted ? "accept" : "reject", it.rho, f, gnorm, radius, next, it.step_norm,
                    linalg::to_string(qp.reason),
-                   m_pcg_model ? fmt::format("  pcg {}", qp.iterations)
-                   : p.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift())
-                                                                    : "");
+                   p.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift()) : "");
     radius = next;
     if (limiting_accuracy) {
       ++i;

@@ -47,11 +47,6 @@ struct TrustRegionParams {
   /// Dogleg, "hessian": "hybrid" (beyond the paper): the exact Hessian where it is positive definite, the projected
   /// one (psd_hessian) where it is not, instead of the exact one shifted by λI.
   bool hybrid_hessian = false;
-  /// Dogleg, "hessian": "hybrid_pcg" (beyond the paper): like "hybrid", but where the exact H is indefinite the
-  /// subproblem keeps the exact model and is solved by Steihaug-Toint CG preconditioned by the projected Hessian's
-  /// factor (linalg::preconditioned_steihaug_cg), so the step is no longer that of the too-stiff projected model
-  /// (ρ ≈ 1.6-2 along folds).
-  bool hybrid_pcg = false;
   /// Dogleg: geometric bisections of the shift λ where H is indefinite (0: the first decade that factorizes).
   int shift_bisections = 0;
   /// Dogleg ("shift": "radius"): where H is indefinite, λ solves ‖(H + λI)⁻¹g‖ = Δ (to 10%, at most 6 more
@@ -111,7 +106,6 @@ struct TrCounters {
   int factorizations = 0;     ///< numeric CHOLMOD factorizations (dogleg), shifted retries included
   int cholmod_fallbacks = 0;  ///< dogleg preparations whose H was not positive definite
   int projected_models = 0;   ///< "hybrid": points where the exact H was indefinite and the projected one was used
-                              ///< ("hybrid_pcg": as the preconditioner of the exact model)
   int extrapolations = 0;     ///< doublings of accepted steps kept (TrustRegionParams::extrapolate)
 };
 
@@ -201,9 +195,6 @@ class LocalTrustRegion {
   std::string m_name;
   linalg::Dogleg m_dogleg;
   bool m_model_exact = true;  ///< the current model's Hessian is the exact one (not projected)
-  bool m_pcg_model = false;   ///< "hybrid_pcg" at an indefinite H: the exact model by CG preconditioned by m_precond
-  linalg::BlockMatrix3 m_projected;
-  linalg::CholmodSolver m_precond;
   linalg::ExactTrustRegion m_exact;
   std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
   std::unique_ptr<linalg::PatchSmoother> m_patches;
