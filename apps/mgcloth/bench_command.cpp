@@ -57,7 +57,7 @@ struct ScalabilityArgs {
 } g_scal;
 
 struct ShellArgs {
-  std::vector<std::string> scenes;
+  std::vector<std::string> scenes, start_from;
   std::string levels = "1,2,3,4", solvers = "tr-dogleg,tr-stcg", out;
   double time_step = 0.0, max_seconds = 0.0, checkpoint_seconds = 600.0;
   int max_iters = 0, threads = 0;
@@ -352,6 +352,10 @@ int run_shells_command() {
   if (!(g_shell.checkpoint_seconds >= 0.0) || !std::isfinite(g_shell.checkpoint_seconds))
     throw_input_error("--checkpoint-seconds: must be a number of seconds >= 0 (got {})", g_shell.checkpoint_seconds);
   opt.checkpoint_seconds = g_shell.checkpoint_seconds;
+  for (const auto& f : g_shell.start_from) {
+    if (!fs::is_regular_file(f)) throw_input_error("--start-from {}: no such file", f);
+    opt.start_from.push_back(f);
+  }
   set_log_level(g_shell.quiet);
   if (g_shell.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
@@ -555,6 +559,9 @@ void add_bench_command(CLI::App& app) {
   sh->add_option("--checkpoint-seconds", g_shell.checkpoint_seconds,
                  "Write each tr-*/rmtr solve's state to OUT/states at most this often (0: only at its end)")
       ->default_val(600.0);
+  sh->add_option("--start-from", g_shell.start_from,
+                 "A state file of a solve at a coarser level (OUT/states/*.state.json of an earlier run): finer solves "
+                 "of its shell start from its solution, prolongated (repeat for other shells)");
 
   auto* ts = bench->add_subcommand(
       "timestep", "Largest time step at which each shell solver converges at every step (Kopanicakova 2019, Fig. 10)");

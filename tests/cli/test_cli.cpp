@@ -4,6 +4,8 @@
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/sim/scene.hpp>
+#include <mgcloth/sim/shell_body.hpp>
 
 #include <fmt/format.h>
 
@@ -679,4 +681,88 @@ TEST_F(Cli, RmtrRunsAShellSceneAndProjectionsBenchReportsBothOperators) {
     EXPECT_LT(exactness, 1e-12) << line;
   }
   EXPECT_EQ(rows, 4);  // two level pairs, two operators each
+}
+
+// `bench shells --start-from`: a finer solve starts from a coarser solve's solution, prolongated by subdivision
+// (reverse subdivision of the start gives that solution back exactly); RMTR then skips nested iteration. Bad starts
+// name the file and what is wrong with it.
+TEST_F(Cli, ShellBenchStartsFromACoarserSolveAndRejectsBadStarts) {
+  const std::string scene = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/shell_trampoline.json";
+  const std::string B = "rmtr@smoother=dogleg@initial=nested@coarse_start=best";
+  const auto state_in = [](const fs::path& out) {
+    for (const auto& e : fs::directory_iterator(out / "states")) return e.path();
+    return fs::path();
+  };
+  Result r = run(fmt::format("bench shells {} --levels 2 --solvers {} -j 1 --max-iters 2000 -q -o {}", scene, B,
+                             (dir / "l2").string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const fs::path s2 = state_in(dir / "l2");
+  const mgcloth::Json j2 = mgcloth::load_json(s2.string());
+  ASSERT_TRUE(j2["converged"].get<bool>());
+  const auto x2 = j2["x"].get<std::vector<double>>();
+
+  // The start itself: a trust-region solve stopped by its time cap before its first iteration keeps it.
+  r = run(fmt::format("bench shells {} --levels 3 --solvers tr-dogleg -j 1 --max-seconds 1e-9 -q -o {} --start-from {}",
+                      scene, (dir / "start").string(), s2.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const mgcloth::Json start = mgcloth::load_json(state_in(dir / "start").string());
+  EXPECT_EQ(start["iterations"].get<int>(), 0);
+  EXPECT_EQ(start["counters"]["started_from_level"].get<double>(), 2.0);
+  mgcloth::sim::Scene sc = mgcloth::sim::load_scene(scene);
+  sc.shells.front().level = 3;
+  mgcloth::sim::ShellBody body(sc.shells.front(), sc.gravity, sc.file);
+  const auto x3 = start["x"].get<std::vector<double>>();
+  ASSERT_EQ(static_cast<mgcloth::Index>(x3.size()), 3 * body.hierarchy().subdivision(1).num_fine);
+  mgcloth::VecX back;
+  body.project(1, Eigen::Map<const mgcloth::VecX>(x3.data(), static_cast<mgcloth::Index>(x3.size())), back);
+  ASSERT_EQ(back.size(), static_cast<mgcloth::Index>(x2.size()));
+  const mgcloth::VecX q = Eigen::Map<const mgcloth::VecX>(x2.data(), static_cast<mgcloth::Index>(x2.size()));
+  EXPECT_LE((back - q).norm(), 1e-12 * q.norm());
+
+  // RMTR from it: converged, no nested iteration, the start recorded.
+  r = run(fmt::format("bench shells {} --levels 3 --solvers {} -j 1 --max-iters 2000 -o {} --start-from {}", scene, B,
+                      (dir / "l3").string(), s2.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("starts from the level-2 solution"), std::string::npos) << r.out;
+  const mgcloth::Json l3 = mgcloth::load_json((dir / "l3" / "shells.json").string());
+  EXPECT_EQ(l3["start_from"][0].get<std::string>(), s2.string());
+  const auto& row = l3["results"][0];
+  EXPECT_TRUE(row["converged"].get<bool>()) << row.dump();
+  EXPECT_EQ(row["counters"]["started_from_level"].get<double>(), 2.0);
+  for (const auto& [k, v] : row["counters"].items()) EXPECT_EQ(k.find("nested_cycles"), std::string::npos) << k;
+
+  // Bad starts: not coarser, missing, an unknown shell, one shell twice, a state whose size is not its level's.
+  const fs::path s3 = state_in(dir / "l3");
+  const auto bench3 = [&](const std::string& starts) {
+    return run(fmt::format("bench shells {} --levels 3 --solvers {} -j 1 -q -o {} {}", scene, B,
+                           (dir / "bad").string(), starts));
+  };
+  r = bench3("--start-from " + s3.string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("level 3 of shell \"trampoline\" is not coarser than this run's levels (3)"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find(s3.string()), std::string::npos) << r.out;
+  r = bench3("--start-from " + (dir / "missing.json").string());
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("missing.json: no such file"), std::string::npos) << r.out;
+  mgcloth::Json other = j2;
+  other["shell"] = "nosuch";
+  const std::string renamed = write("renamed.json", other.dump());
+  r = bench3("--start-from " + renamed);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("no scene has a shell named \"nosuch\""), std::string::npos) << r.out;
+  r = bench3(fmt::format("--start-from {} --start-from {}", s2.string(), s2.string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("already starts from"), std::string::npos) << r.out;
+  mgcloth::Json cut = j2;
+  auto x = x2;
+  x.resize(x.size() - 3);
+  cut["x"] = x;
+  cut["dofs"] = x.size();
+  const std::string cut_file = write("cut.json", cut.dump());
+  r = bench3("--start-from " + cut_file);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find(fmt::format("{} dofs, level 2 of shell \"trampoline\" has {}", x.size(), x2.size())),
+            std::string::npos)
+      << r.out;
 }

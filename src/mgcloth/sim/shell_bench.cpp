@@ -7,6 +7,9 @@
 #include <mgcloth/sim/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <fmt/ranges.h>
+
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <optional>
@@ -101,6 +104,59 @@ ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX
     throw_input_error("{}: {}", file, e.what());
   }
 }
+/// A coarser solve's state for `--start-from`: its shell, level and solution with its own coarse levels.
+struct StartState {
+  std::string file, shell;
+  int level = 0;
+  VecX x;
+  std::vector<VecX> levels;  ///< coarsest first, as Rmtr::level_states()
+};
+
+StartState read_start_state(const std::string& file) {
+  const Json j = load_json(file);
+  ShellBenchRow expect;
+  try {
+    if (!j.is_object() || !j.contains("shell") || !j.contains("level") || !j.contains("solver") || !j.contains("dofs"))
+      throw_input_error("{}: not a shell bench state (it needs \"shell\", \"level\", \"solver\" and \"dofs\")", file);
+    expect.shell = j.at("shell").get<std::string>();
+    expect.level = j.at("level").get<int>();
+    expect.solver = j.at("solver").get<std::string>();
+    expect.dofs = j.at("dofs").get<Index>();
+  } catch (const Json::exception& e) {
+    throw_input_error("{}: {}", file, e.what());
+  }
+  StartState st;
+  st.file = file;
+  st.shell = expect.shell;
+  st.level = expect.level;
+  read_state(file, expect, st.x, st.levels);
+  return st;
+}
+
+/// x and the coarse-level states of a solve at the body's finest level from a coarser solve's state: the solution
+/// prolongated level by level, and below it the state's own levels (Rmtr::resume_level_states order).
+void start_from_coarser(const ShellBody& body, const StartState& st, VecX& x, std::vector<VecX>& levels) {
+  const hierarchy::SubdivisionHierarchy& h = body.hierarchy();
+  const int finest = body.num_levels() - 1, from = st.level - 1;  // hierarchy levels, 0 the coarsest
+  if (from < 0 || from >= finest)
+    throw_input_error("--start-from {}: level {} of shell \"{}\" is not coarser than this solve's level {}", st.file,
+                      st.level, st.shell, finest + 1);
+  const Index expected = 3 * h.subdivision(from).num_coarse;
+  if (st.x.size() != expected)
+    throw_input_error("--start-from {}: {} dofs, level {} of shell \"{}\" has {}", st.file, st.x.size(), st.level,
+                      st.shell, expected);
+  levels = st.levels;
+  if (static_cast<int>(levels.size()) != from) levels.clear();  // not an RMTR state of `from` levels below
+  VecX v = st.x;
+  for (int l = from; l < finest; ++l) {
+    levels.push_back(v);
+    VecX fine;
+    h.subdivision(l).apply(v, fine);
+    v.swap(fine);
+  }
+  x = std::move(v);
+  if (levels.size() != static_cast<size_t>(finest)) levels.clear();
+}
 }  // namespace
 
 Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt) {
@@ -126,6 +182,25 @@ Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, co
 std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& opt,
                                            const ShellBenchProgress& on_row) {
   if (opt.threads > 0) set_num_threads(opt.threads);
+  std::vector<StartState> starts;
+  for (const std::string& f : opt.start_from) {
+    starts.push_back(read_start_state(f));
+    bool known = false;
+    for (const Scene& sc : scenes)
+      for (const auto& sh : sc.shells) known = known || sh.name == starts.back().shell;
+    if (!known) throw_input_error("--start-from {}: no scene has a shell named \"{}\"", f, starts.back().shell);
+    if (std::none_of(opt.levels.begin(), opt.levels.end(), [&](int l) { return l > starts.back().level; }))
+      throw_input_error("--start-from {}: level {} of shell \"{}\" is not coarser than this run's levels ({})", f,
+                        starts.back().level, starts.back().shell, fmt::join(opt.levels, ","));
+    for (size_t k = 0; k + 1 < starts.size(); ++k)
+      if (starts[k].shell == starts.back().shell)
+        throw_input_error("--start-from {}: shell \"{}\" already starts from {}", f, starts.back().shell, starts[k].file);
+  }
+  const auto start_for = [&](const std::string& shell, int level) -> const StartState* {
+    for (const auto& st : starts)
+      if (st.shell == shell && st.level < level) return &st;
+    return nullptr;
+  };
   std::vector<ShellBenchRow> rows;
   for (const Scene& base : scenes) {
     if (base.shells.empty()) throw_input_error("{}: the scene has no shells", base.file);
@@ -139,6 +214,11 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             if (fs::exists(state_path(opt, scene.shells[s].name, level, spec.label))) any = true;
           if (any && scene.solver.name == "rmtr") scene.solver.params["initial"] = "fine";
         }
+        // A solve that starts from a coarser solution skips nested iteration: projections of the prolongated
+        // solution would restart the coarse levels from what it already solved, with coarse energies of 1e40 J
+        // where the fine state is wrinkled.
+        for (const auto& sh : scene.shells)
+          if (start_for(sh.name, level) && scene.solver.name == "rmtr") scene.solver.params["initial"] = "fine";
         Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
           ShellBenchRow row;
@@ -152,6 +232,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           std::optional<ShellBenchRow> before;
           VecX resumed;
           std::vector<VecX> resumed_levels;
+          int started_from = 0;
           if (opt.resume && !state.empty() && fs::exists(state)) before = read_state(state, row, resumed, resumed_levels);
           if (before && before->converged) {
             logger().info("{} level {} {}: converged in an earlier run ({})", row.shell, level, spec.label, state.string());
@@ -167,6 +248,14 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             logger().info("{} level {} {}: resumed after {} iterations ({}{})", row.shell, level, spec.label,
                           before->iterations, state.string(),
                           resumed_levels.empty() ? "" : fmt::format(", with {} coarse level states", resumed_levels.size()));
+          } else if (const StartState* st = start_for(row.shell, level)) {
+            std::vector<VecX> start_levels;
+            start_from_coarser(*sim.shells()[s], *st, x, start_levels);
+            sim.shell_solver(s).resume_level_states(start_levels);
+            started_from = st->level;
+            logger().info("{} level {} {}: starts from the level-{} solution of {} ({} control points){}", row.shell,
+                          level, spec.label, st->level, st->file, st->x.size() / 3,
+                          start_levels.empty() ? "" : fmt::format(", with {} coarse level states", start_levels.size()));
           }
           Timer timer;
           solvers::Stop stop = scene.solver.stop;
@@ -188,7 +277,9 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
               c.wall_s = timer.seconds() + (before ? before->wall_s : 0.0);
               if (before)
                 for (const auto& [k, v] : before->counters)
-                  if (k.find("_nested_cycles") != std::string::npos) c.counters.emplace_back(k, v);
+                  if (k.find("_nested_cycles") != std::string::npos || k == "started_from_level")
+                    c.counters.emplace_back(k, v);
+              if (started_from > 0) c.counters.emplace_back("started_from_level", started_from);
               write_state(state, c, xc, sim.shell_solver(s).level_states());
               logger().debug("{} level {} {}: checkpoint after {} iterations ({})", row.shell, level, spec.label,
                              c.iterations, state.string());
@@ -214,9 +305,10 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             row.initial_grad_norm = before->initial_grad_norm;  // ‖g₀‖ of the step's start, for rel_grad
             // The nested cycles were spent by the first part only; its iterations include every part before.
             for (const auto& [k, v] : before->counters)
-              if (k.find("_nested_cycles") != std::string::npos) row.counters.emplace_back(k, v);
+              if (k.find("_nested_cycles") != std::string::npos || k == "started_from_level") row.counters.emplace_back(k, v);
             row.counters.emplace_back("resumed_iterations", before->iterations);
           }
+          if (started_from > 0) row.counters.emplace_back("started_from_level", started_from);  // a resumed one: from `before`
           if (!state.empty() && row.status != "diverged") write_state(state, row, x, sim.shell_solver(s).level_states());
           logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
                         spec.label, row.iterations, row.status, row.wall_s);
@@ -253,6 +345,7 @@ Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOp
   Json j;
   j["levels"] = opt.levels;
   j["threads"] = opt.threads > 0 ? opt.threads : num_threads();
+  if (!opt.start_from.empty()) j["start_from"] = opt.start_from;
   j["results"] = Json::array();
   for (const auto& r : rows) {
     Json c = Json::object();

@@ -25,6 +25,12 @@ struct ShellBenchOptions {
   /// With states_dir, > 0: `tr-*` and `rmtr` solves also write their state (status "checkpoint") at most this
   /// often, in seconds, so that a killed run loses at most that much.
   double checkpoint_seconds = 600.0;
+  /// States of solves at coarser levels (files written by an earlier `bench shells`, any solver): a solve of the
+  /// same shell at a finer level, without a state of its own to resume, starts from that solution prolongated by
+  /// subdivision (beyond the paper: the nested start of full multigrid without re-solving the levels a coarser run
+  /// has already solved). RMTR then skips nested iteration, and its coarse levels start from the state's own levels
+  /// and its solution (`coarse_start: best`). The row gets the counter `started_from_level`.
+  std::vector<std::string> start_from;
 };
 
 struct ShellBenchRow {
