@@ -217,8 +217,16 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
         // A solve that starts from a coarser solution skips nested iteration: projections of the prolongated
         // solution would restart the coarse levels from what it already solved, with coarse energies of 1e40 J
         // where the fine state is wrinkled.
-        for (const auto& sh : scene.shells)
-          if (start_for(sh.name, level) && scene.solver.name == "rmtr") scene.solver.params["initial"] = "fine";
+        // The scene's solver settings serve all its shells, so either all of them start from coarser solves or none.
+        size_t with_start = 0;
+        for (const auto& sh : scene.shells) with_start += start_for(sh.name, level) ? 1 : 0;
+        if (with_start > 0 && scene.solver.name == "rmtr") {
+          if (with_start < scene.shells.size())
+            throw_input_error("--start-from: {} has {} shells and starts for {} of them at level {}; RMTR without "
+                              "nested iteration needs a start for each", base.file, scene.shells.size(), with_start,
+                              level);
+          scene.solver.params["initial"] = "fine";
+        }
         Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
           ShellBenchRow row;
