@@ -754,6 +754,15 @@ TEST_F(Cli, ShellBenchStartsFromACoarserSolveAndRejectsBadStarts) {
   r = bench3(fmt::format("--start-from {} --start-from {}", s2.string(), s2.string()));
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.out.find("already starts from"), std::string::npos) << r.out;
+  // RMTR's settings serve every shell of a scene: a start for one of two shells is refused.
+  mgcloth::Json two = mgcloth::Json::parse(mgcloth::read_file(scene));
+  two["shells"].push_back(two["shells"][0]);
+  two["shells"][1]["name"] = "second";
+  const std::string two_scene = write("two.json", two.dump());
+  r = run(fmt::format("bench shells {} --levels 3 --solvers {} -j 1 -q -o {} --start-from {}", two_scene, B,
+                      (dir / "two").string(), s2.string()));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.out.find("has 2 shells and starts for 1 of them at level 3"), std::string::npos) << r.out;
   mgcloth::Json cut = j2;
   auto x = x2;
   x.resize(x.size() - 3);
