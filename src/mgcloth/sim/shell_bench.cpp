@@ -104,6 +104,11 @@ ShellBenchRow read_state(const fs::path& path, const ShellBenchRow& expect, VecX
     throw_input_error("{}: {}", file, e.what());
   }
 }
+/// Counters of the first part of a solve that a resumed part keeps: its nested cycles and where it started from.
+bool spent_by_first_part(const std::string& counter) {
+  return counter.find("_nested_cycles") != std::string::npos || counter == "started_from_level";
+}
+
 /// A coarser solve's state for `--start-from`: its shell, level and solution with its own coarse levels.
 struct StartState {
   std::string file, shell;
@@ -216,8 +221,8 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
         }
         // A solve that starts from a coarser solution skips nested iteration: projections of the prolongated
         // solution would restart the coarse levels from what it already solved, with coarse energies of 1e40 J
-        // where the fine state is wrinkled.
-        // The scene's solver settings serve all its shells, so either all of them start from coarser solves or none.
+        // where the fine state is wrinkled. The scene's solver settings serve all its shells, so either all of
+        // them start from coarser solves or none.
         size_t with_start = 0;
         for (const auto& sh : scene.shells) with_start += start_for(sh.name, level) ? 1 : 0;
         if (with_start > 0 && scene.solver.name == "rmtr") {
@@ -285,8 +290,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
               c.wall_s = timer.seconds() + (before ? before->wall_s : 0.0);
               if (before)
                 for (const auto& [k, v] : before->counters)
-                  if (k.find("_nested_cycles") != std::string::npos || k == "started_from_level")
-                    c.counters.emplace_back(k, v);
+                  if (spent_by_first_part(k)) c.counters.emplace_back(k, v);
               if (started_from > 0) c.counters.emplace_back("started_from_level", started_from);
               write_state(state, c, xc, sim.shell_solver(s).level_states());
               logger().debug("{} level {} {}: checkpoint after {} iterations ({})", row.shell, level, spec.label,
@@ -313,10 +317,10 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             row.initial_grad_norm = before->initial_grad_norm;  // ‖g₀‖ of the step's start, for rel_grad
             // The nested cycles were spent by the first part only; its iterations include every part before.
             for (const auto& [k, v] : before->counters)
-              if (k.find("_nested_cycles") != std::string::npos || k == "started_from_level") row.counters.emplace_back(k, v);
+              if (spent_by_first_part(k)) row.counters.emplace_back(k, v);
             row.counters.emplace_back("resumed_iterations", before->iterations);
           }
-          if (started_from > 0) row.counters.emplace_back("started_from_level", started_from);  // a resumed one: from `before`
+          if (started_from > 0) row.counters.emplace_back("started_from_level", started_from);  // resumed: kept above
           if (!state.empty() && row.status != "diverged") write_state(state, row, x, sim.shell_solver(s).level_states());
           logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
                         spec.label, row.iterations, row.status, row.wall_s);
