@@ -159,12 +159,6 @@ Json write_fas(const FasParams& p) {
   return j;
 }
 
-const char* hessian_name(const TrustRegionParams& p) {
-  if (p.psd_hessian) return "projected";
-  if (p.hybrid_hessian) return p.blend_bisections > 0 ? "blend" : "hybrid";
-  return "exact";
-}
-
 TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.eta1 = r.number("eta1", p.eta1, 0.0, 1.0);
   p.eta2 = r.number("eta2", p.eta2, 0.0, 1.0);
@@ -184,16 +178,10 @@ TrustRegionParams read_trust_region(JsonReader& r, TrustRegionParams p) {
   p.stagnation_tol = r.number("stagnation_tol", p.stagnation_tol, 0.0, 1.0);
   p.stagnation_delta = r.number("stagnation_delta", p.stagnation_delta, 0.0, kInf);
   p.roundoff_tol = r.number("roundoff_tol", p.roundoff_tol, 0.0, 1e-6);
-  const std::string hessian =
-      r.choice("hessian", hessian_name(p), {"exact", "projected", "hybrid", "blend"});
+  const std::string hessian = r.choice("hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact",
+                                       {"exact", "projected", "hybrid"});
   p.psd_hessian = hessian == "projected";
-  p.hybrid_hessian = hessian == "hybrid" || hessian == "blend";
-  if (hessian == "blend") {
-    p.blend_bisections = r.integer("blend_bisections", p.blend_bisections > 0 ? p.blend_bisections : 3, 1, 30);
-  } else {
-    if (r.has("blend_bisections")) r.fail("blend_bisections", "is read only with \"hessian\": \"blend\"");
-    p.blend_bisections = 0;
-  }
+  p.hybrid_hessian = hessian == "hybrid";
   p.shrink_from_step = r.boolean("shrink_from_step", p.shrink_from_step);
   p.shift_bisections = r.integer("shift_bisections", p.shift_bisections, 0, 20);
   p.radius_shift = r.choice("shift", p.radius_shift ? "radius" : "factorize", {"factorize", "radius"}) == "radius";
@@ -210,12 +198,11 @@ Json write_trust_region(const TrustRegionParams& p) {
             {"stagnation_tol", p.stagnation_tol},
             {"stagnation_delta", p.stagnation_delta},
             {"roundoff_tol", p.roundoff_tol},
-            {"hessian", hessian_name(p)},
+            {"hessian", p.psd_hessian ? "projected" : p.hybrid_hessian ? "hybrid" : "exact"},
             {"shrink_from_step", p.shrink_from_step},
             {"shift_bisections", p.shift_bisections},
             {"shift", p.radius_shift ? "radius" : "factorize"},
             {"extrapolate", p.extrapolate}};
-  if (p.blend_bisections > 0) j["blend_bisections"] = p.blend_bisections;
   if (p.qp == TrQp::SteihaugCg) {
     j["stcg_max_iters"] = p.stcg_max_iters;
     j["stcg_rel_tol"] = p.stcg_rel_tol;

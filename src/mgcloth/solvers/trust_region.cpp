@@ -144,40 +144,11 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
           } else if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
             // Indefinite: every element Hessian projected to positive semidefinite convexifies only where the
             // energy is concave, where H + λI damps every direction alike by λ.
-            if (p.blend_bisections > 0) m_exact_hessian = m_hessian;
             h.hessian(x, m_hessian, true);
             ++m_counters.hessian_assemblies;
             ++m_counters.projected_models;
             m_model_exact = false;
-            if (p.blend_bisections > 0 && m_exact_hessian.num_blocks() == m_hessian.num_blocks()) {
-              m_projected_hessian = m_hessian;
-              const auto blend = [&](double a) {
-                auto& out = m_hessian.blocks();
-                const auto& E = m_exact_hessian.blocks();
-                const auto& P = m_projected_hessian.blocks();
-                for (size_t k = 0; k < out.size(); ++k) out[k] = E[k] + a * (P[k] - E[k]);
-              };
-              double lo = 0.0, hi = 1.0;
-              bool holds_hi = false;  // the dogleg is prepared with the blend at hi
-              for (int b = 0; b < p.blend_bisections; ++b) {
-                const double a = 0.5 * (lo + hi);
-                blend(a);
-                if (m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
-                  hi = a;
-                  holds_hi = true;
-                } else {
-                  lo = a;
-                  holds_hi = false;
-                }
-              }
-              if (!holds_hi) {
-                if (hi == 1.0) m_hessian = m_projected_hessian;
-                else blend(hi);
-                m_dogleg.prepare(m_hessian, m_g, control.metric);
-              }
-            } else {
-              m_dogleg.prepare(m_hessian, m_g, control.metric);
-            }
+            m_dogleg.prepare(m_hessian, m_g, control.metric);
           }
         } catch (const SolveError& e) {
           throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));

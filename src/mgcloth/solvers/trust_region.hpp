@@ -47,12 +47,6 @@ struct TrustRegionParams {
   /// Dogleg, "hessian": "hybrid" (beyond the paper): the exact Hessian where it is positive definite, the projected
   /// one (psd_hessian) where it is not, instead of the exact one shifted by λI.
   bool hybrid_hessian = false;
-  /// With hybrid_hessian, "hessian": "blend" (beyond the paper): where H is indefinite, the model is
-  /// H + α(P − H), P the projected Hessian, with the smallest α ∈ (0, 1] found by this many bisections that
-  /// factorizes (P − H ⪰ 0, so definiteness is monotone in α). P convexifies every concave element wholly, which
-  /// makes the model stiff where the energy is nearly flat (ρ ≈ 2 on every step); the blend adds only as much
-  /// curvature as definiteness needs, and the radius bounds the longer step. 0: P itself ("hybrid").
-  int blend_bisections = 0;
   /// Dogleg: geometric bisections of the shift λ where H is indefinite (0: the first decade that factorizes).
   int shift_bisections = 0;
   /// Dogleg ("shift": "radius"): where H is indefinite, λ solves ‖(H + λI)⁻¹g‖ = Δ (to 10%, at most 6 more
@@ -205,7 +199,6 @@ class LocalTrustRegion {
   std::unique_ptr<linalg::MultiColorGaussSeidel> m_gs;
   std::unique_ptr<linalg::PatchSmoother> m_patches;
   linalg::BlockMatrix3 m_hessian;
-  linalg::BlockMatrix3 m_exact_hessian, m_projected_hessian;  ///< blend_bisections: the two ends of the blend
   VecX m_g, m_g_trial, m_trial;
   TrCounters m_counters;
   std::vector<TrIteration> m_history;
