@@ -8,26 +8,18 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/core/parallel.hpp>
+#include <mgcloth/physics/objective.hpp>
 #include <mgcloth/sim/scene.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include <CLI/CLI.hpp>
 
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
-#include <limits>
-#include <random>
 #include <vector>
 
 using namespace mgcloth;
 
 namespace {
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v[v.size() / 2];
-}
 
 int run(const std::string& scene_file, const std::string& state_file, int samples, unsigned seed) {
   const Json st = load_json(state_file);
@@ -61,41 +53,13 @@ int run(const std::string& scene_file, const std::string& state_file, int sample
   const VecX x = Eigen::Map<const VecX>(values.data(), static_cast<Index>(values.size()));
   if (!x.allFinite()) throw_input_error("{}: \"x\" has a non-finite entry", state_file);
 
-  const auto& terms = problem.objective->terms();
-  const auto term_gradient = [&](size_t t, const VecX& at) {
-    VecX g = VecX::Zero(at.size());
-    terms[t]->add_gradient(at, g);
-    return g;
-  };
   VecX g;
   problem.objective->gradient(x, g);
   std::printf("# %s, shell \"%s\", level %d, %td dofs: E = %.12e, |g| = %.3e\n", state_file.c_str(), shell.c_str(),
               st.at("level").get<int>(), x.size(), problem.objective->value(x), g.norm());
-
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> step(-1, 1);
-  std::vector<VecX> perturbed(samples, x);
-  for (VecX& xp : perturbed)
-    for (Index i = 0; i < xp.size(); ++i) {
-      const int d = step(rng);
-      if (d != 0) xp[i] = std::nextafter(xp[i], d > 0 ? std::numeric_limits<double>::infinity()
-                                                       : -std::numeric_limits<double>::infinity());
-    }
   std::printf("term,grad_norm,change_median,change_max\n");
-  for (size_t t = 0; t <= terms.size(); ++t) {
-    // The last row is the whole objective: the floor that the solve's ‖g‖ meets.
-    const auto grad = [&](const VecX& at) {
-      if (t < terms.size()) return term_gradient(t, at);
-      VecX all;
-      problem.objective->gradient(at, all);
-      return all;
-    };
-    const VecX gt = grad(x);
-    std::vector<double> change;
-    for (const VecX& xp : perturbed) change.push_back((grad(xp) - gt).norm());
-    std::printf("%s,%.3e,%.3e,%.3e\n", t < terms.size() ? terms[t]->name().c_str() : "total", gt.norm(),
-                median(change), *std::max_element(change.begin(), change.end()));
-  }
+  for (const auto& r : physics::gradient_roundoff(*problem.objective, x, samples, seed))
+    std::printf("%s,%.3e,%.3e,%.3e\n", r.term.c_str(), r.grad_norm, r.change_median, r.change_max);
   return 0;
 }
 

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <cmath>
 #include <random>
 
 using namespace mgcloth;
@@ -312,6 +313,49 @@ TEST(Objective, SumsTermsAndAssemblesInParallelDeterministically) {
   obj.hessian(x, H1);
   obj.hessian(x, H2);
   for (Index k = 0; k < H1.num_blocks(); ++k) EXPECT_TRUE((H1.block(k).array() == H2.block(k).array()).all());
+}
+
+// The round-off floor of the gradient (Kopaničáková 2019 §7.2's limiting accuracy). Gravity's gradient does not
+// depend on x: no floor at all. A pin of power-of-two stiffness k, with targets within a factor of two of the
+// positions, changes its gradient by exactly k·(x' − x) (Sterbenz: x − t is exact; ×2^m is exact), so over random
+// one-ulp moves (each coordinate with probability ⅔) the change's norm is k·√(⅔ Σ ulp(x_i)²) up to sampling noise.
+TEST(Objective, GradientRoundoffIsZeroForConstantGradientsAndKUlpsForPins) {
+  const Index n = 2000;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(0.6, 1.9), rel(0.7, 1.3);
+  VecX x(3 * n);
+  std::vector<Vec3> targets(n);
+  for (Index i = 0; i < 3 * n; ++i) x[i] = pos(rng);
+  for (Index v = 0; v < n; ++v)
+    for (int c = 0; c < 3; ++c) targets[v][c] = x[3 * v + c] * rel(rng);
+  const double k = std::ldexp(1.0, 30);
+  std::vector<Index> vertices(n);
+  for (Index v = 0; v < n; ++v) vertices[v] = v;
+  Objective obj(n);
+  obj.add(std::make_unique<GravityTerm>(VecX::Constant(n, 0.01), Vec3(0, 0, -9.81)));
+  obj.add(std::make_unique<AttachmentTerm>(vertices, std::vector<double>(n, k), n)).set_targets(targets);
+  obj.finalize();
+  const auto rows = gradient_roundoff(obj, x, 9);
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].term, "gravity");
+  EXPECT_EQ(rows[0].change_max, 0.0);
+  EXPECT_EQ(rows[1].term, "attachment");
+  double ulp2 = 0.0;
+  for (Index i = 0; i < x.size(); ++i) ulp2 += std::pow(std::nextafter(x[i], 2.0 * x[i]) - x[i], 2);
+  const double expected = k * std::sqrt(2.0 / 3.0 * ulp2);
+  EXPECT_NEAR(rows[1].change_median, expected, 0.05 * expected);
+  EXPECT_GE(rows[1].change_max, rows[1].change_median);
+  VecX g;
+  obj.gradient(x, g);
+  EXPECT_EQ(rows[2].term, "total");
+  EXPECT_DOUBLE_EQ(rows[2].grad_norm, g.norm());
+  // The floor is a property of x: a stiffer pin at the same x has a proportionally higher one.
+  Objective stiff(n);
+  stiff.add(std::make_unique<AttachmentTerm>(vertices, std::vector<double>(n, 4.0 * k), n)).set_targets(targets);
+  stiff.finalize();
+  EXPECT_DOUBLE_EQ(gradient_roundoff(stiff, x, 9)[0].change_median, 4.0 * rows[1].change_median);
+  EXPECT_THROW(gradient_roundoff(obj, x, 0), mgcloth::Error);
+  EXPECT_THROW(gradient_roundoff(obj, x.head(3), 1), mgcloth::Error);
 }
 
 // The assembly coloring: every element exactly once; no two chunks of one color share a vertex (the race-free

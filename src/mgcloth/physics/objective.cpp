@@ -1,6 +1,11 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/physics/objective.hpp>
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
 namespace mgcloth::physics {
 
 void Objective::finalize() {
@@ -42,6 +47,41 @@ std::vector<std::pair<std::string, double>> Objective::term_values(const VecX& x
   std::vector<std::pair<std::string, double>> out;
   for (const auto& t : m_terms) out.emplace_back(t->name(), t->value(x));
   return out;
+}
+
+std::vector<GradientRoundoff> gradient_roundoff(const Objective& objective, const VecX& x, int samples,
+                                                unsigned seed) {
+  if (samples < 1) throw_error("gradient_roundoff: {} samples (at least 1)", samples);
+  if (x.size() != objective.num_dofs())
+    throw_error("gradient_roundoff: x has {} entries, the objective {} dofs", x.size(), objective.num_dofs());
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> step(-1, 1);
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  std::vector<VecX> moved(static_cast<size_t>(samples), x);
+  for (VecX& xp : moved)
+    for (Index i = 0; i < xp.size(); ++i)
+      if (const int d = step(rng); d != 0) xp[i] = std::nextafter(xp[i], d > 0 ? inf : -inf);
+  const auto& terms = objective.terms();
+  std::vector<GradientRoundoff> rows;
+  for (size_t t = 0; t <= terms.size(); ++t) {
+    const auto grad = [&](const VecX& at) {
+      VecX g;
+      if (t == terms.size()) {
+        objective.gradient(at, g);
+      } else {
+        g.setZero(at.size());
+        terms[t]->add_gradient(at, g);
+      }
+      return g;
+    };
+    const VecX g = grad(x);
+    std::vector<double> change;
+    for (const VecX& xp : moved) change.push_back((grad(xp) - g).norm());
+    std::sort(change.begin(), change.end());
+    rows.push_back({t == terms.size() ? std::string("total") : terms[t]->name(), g.norm(),
+                    change[change.size() / 2], change.back()});
+  }
+  return rows;
 }
 
 }  // namespace mgcloth::physics

@@ -43,4 +43,20 @@ class Objective {
   bool m_finalized = false;
 };
 
+/// One row of gradient_roundoff(): a term's (or, as "total", the whole objective's) gradient norm at x and the norm
+/// of its change when x moves by at most one ulp per coordinate, the median and the largest over the draws.
+struct GradientRoundoff {
+  std::string term;
+  double grad_norm = 0.0;
+  double change_median = 0.0;
+  double change_max = 0.0;
+};
+
+/// The round-off floor of ‖∇E‖ at x, the limiting accuracy of Kopaničáková 2019 §7.2: every coordinate of x moves
+/// by −1, 0 or +1 ulp at random (`samples` draws from `seed`) and the gradient's change is measured, term by term
+/// and in total (the last row). x is only known to an ulp, so no solver drives ‖∇E‖ below this change; a solve
+/// stopped by (7.1)'s stagnation clause should stop near it. Throws Error for samples < 1 or a size mismatch.
+std::vector<GradientRoundoff> gradient_roundoff(const Objective& objective, const VecX& x, int samples,
+                                                unsigned seed = 1);
+
 }  // namespace mgcloth::physics
