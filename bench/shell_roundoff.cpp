@@ -6,59 +6,44 @@
 //   mgcloth_bench_shell_roundoff SCENE STATE [--samples K] [--seed S] [--threads T]
 // STATE is a `mgcloth bench shells` state file (states/*.state.json); its level sets the shell's level.
 #include <mgcloth/core/error.hpp>
-#include <mgcloth/core/json.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/sim/scene.hpp>
+#include <mgcloth/sim/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
-#include <vector>
 
 using namespace mgcloth;
 
 namespace {
 
 int run(const std::string& scene_file, const std::string& state_file, int samples, unsigned seed) {
-  const Json st = load_json(state_file);
-  if (!st.is_object() || !st.contains("x") || !st.contains("level") || !st.contains("shell"))
-    throw_input_error("{}: not a shell bench state (needs \"x\", \"level\" and \"shell\")", state_file);
-  if (!st.at("level").is_number_integer() || st.at("level").get<int>() < 1 || st.at("level").get<int>() > 9)
-    throw_input_error("{}: \"level\" must be an integer from 1 to 9, as a scene's shell level", state_file);
-  if (!st.at("shell").is_string() || !st.at("x").is_array())
-    throw_input_error("{}: \"shell\" must be a string and \"x\" an array", state_file);
+  const sim::ShellBenchState st = sim::read_shell_bench_state(state_file);
+  if (st.level < 1 || st.level > 9)
+    throw_input_error("{}: level {} is not a shell level (1 to 9)", state_file, st.level);
   sim::Scene scene = sim::load_scene(scene_file);
-  const std::string shell = st.at("shell").get<std::string>();
   size_t s = scene.shells.size();
   for (size_t k = 0; k < scene.shells.size(); ++k)
-    if (scene.shells[k].name == shell) s = k;
-  if (s == scene.shells.size()) throw_input_error("{}: no shell named \"{}\" (from {})", scene_file, shell, state_file);
-  for (auto& sh : scene.shells) sh.level = st.at("level").get<int>();
+    if (scene.shells[k].name == st.shell) s = k;
+  if (s == scene.shells.size())
+    throw_input_error("{}: no shell named \"{}\" (from {})", scene_file, st.shell, state_file);
+  for (auto& sh : scene.shells) sh.level = st.level;
   scene.cloths.clear();
   scene.frames = 1;
   sim::Simulator sim(scene);
   VecX x0;
   const solvers::Problem problem = sim.prepare_shell_problem(s, x0);
-  std::vector<double> values;
-  try {
-    values = st.at("x").get<std::vector<double>>();
-  } catch (const Json::exception&) {
-    throw_input_error("{}: \"x\" must be an array of numbers", state_file);
-  }
-  if (static_cast<Index>(values.size()) != x0.size())
-    throw_input_error("{}: \"x\" has {} entries, shell \"{}\" at level {} has {} dofs", state_file, values.size(), shell,
-                      st.at("level").get<int>(), x0.size());
-  const VecX x = Eigen::Map<const VecX>(values.data(), static_cast<Index>(values.size()));
-  if (!x.allFinite()) throw_input_error("{}: \"x\" has a non-finite entry", state_file);
-
-  VecX g;
-  problem.objective->gradient(x, g);
-  std::printf("# %s, shell \"%s\", level %d, %td dofs: E = %.12e, |g| = %.3e\n", state_file.c_str(), shell.c_str(),
-              st.at("level").get<int>(), x.size(), problem.objective->value(x), g.norm());
+  if (st.x.size() != x0.size())
+    throw_input_error("{}: {} dofs, shell \"{}\" of {} at level {} has {}", state_file, st.x.size(), st.shell,
+                      scene_file, st.level, x0.size());
+  const auto rows = physics::gradient_roundoff(*problem.objective, st.x, samples, seed);
+  std::printf("# %s, shell \"%s\", level %d, %td dofs: E = %.12e, |g| = %.3e\n", state_file.c_str(),
+              st.shell.c_str(), st.level, st.x.size(), problem.objective->value(st.x), rows.back().grad_norm);
   std::printf("term,grad_norm,change_median,change_max\n");
-  for (const auto& r : physics::gradient_roundoff(*problem.objective, x, samples, seed))
+  for (const auto& r : rows)
     std::printf("%s,%.3e,%.3e,%.3e\n", r.term.c_str(), r.grad_norm, r.change_median, r.change_max);
   return 0;
 }

@@ -109,15 +109,9 @@ bool spent_by_first_part(const std::string& counter) {
   return counter.find("_nested_cycles") != std::string::npos || counter == "started_from_level";
 }
 
-/// A coarser solve's state for `--start-from`: its shell, level and solution with its own coarse levels.
-struct StartState {
-  std::string file, shell;
-  int level = 0;
-  VecX x;
-  std::vector<VecX> levels;  ///< coarsest first, as Rmtr::level_states()
-};
+}  // namespace
 
-StartState read_start_state(const std::string& file) {
+ShellBenchState read_shell_bench_state(const std::string& file) {
   const Json j = load_json(file);
   ShellBenchRow expect;
   try {
@@ -130,7 +124,7 @@ StartState read_start_state(const std::string& file) {
   } catch (const Json::exception& e) {
     throw_input_error("{}: {}", file, e.what());
   }
-  StartState st;
+  ShellBenchState st;
   st.file = file;
   st.shell = expect.shell;
   st.level = expect.level;
@@ -138,9 +132,11 @@ StartState read_start_state(const std::string& file) {
   return st;
 }
 
+namespace {
+
 /// x and the coarse-level states of a solve at the body's finest level from a coarser solve's state: the solution
 /// prolongated level by level, and below it the state's own levels (Rmtr::resume_level_states order).
-void start_from_coarser(const ShellBody& body, const StartState& st, VecX& x, std::vector<VecX>& levels) {
+void start_from_coarser(const ShellBody& body, const ShellBenchState& st, VecX& x, std::vector<VecX>& levels) {
   const hierarchy::SubdivisionHierarchy& h = body.hierarchy();
   const int finest = body.num_levels() - 1, from = st.level - 1;  // hierarchy levels, 0 the coarsest
   if (from < 0 || from >= finest)
@@ -187,9 +183,9 @@ Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, co
 std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& opt,
                                            const ShellBenchProgress& on_row) {
   if (opt.threads > 0) set_num_threads(opt.threads);
-  std::vector<StartState> starts;
+  std::vector<ShellBenchState> starts;
   for (const std::string& f : opt.start_from) {
-    starts.push_back(read_start_state(f));
+    starts.push_back(read_shell_bench_state(f));
     bool known = false;
     for (const Scene& sc : scenes)
       for (const auto& sh : sc.shells) known = known || sh.name == starts.back().shell;
@@ -201,7 +197,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
       if (starts[k].shell == starts.back().shell)
         throw_input_error("--start-from {}: shell \"{}\" already starts from {}", f, starts.back().shell, starts[k].file);
   }
-  const auto start_for = [&](const std::string& shell, int level) -> const StartState* {
+  const auto start_for = [&](const std::string& shell, int level) -> const ShellBenchState* {
     for (const auto& st : starts)
       if (st.shell == shell && st.level < level) return &st;
     return nullptr;
@@ -261,7 +257,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             logger().info("{} level {} {}: resumed after {} iterations ({}{})", row.shell, level, spec.label,
                           before->iterations, state.string(),
                           resumed_levels.empty() ? "" : fmt::format(", with {} coarse level states", resumed_levels.size()));
-          } else if (const StartState* st = start_for(row.shell, level)) {
+          } else if (const ShellBenchState* st = start_for(row.shell, level)) {
             std::vector<VecX> start_levels;
             start_from_coarser(*sim.shells()[s], *st, x, start_levels);
             sim.shell_solver(s).resume_level_states(start_levels);

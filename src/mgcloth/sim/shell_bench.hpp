@@ -46,6 +46,18 @@ struct ShellBenchRow {
   std::vector<std::pair<std::string, double>> counters;
 };
 
+/// A state file written by `bench shells` (its `states/`): the shell, level and iterate of one solve, with the
+/// solver's own coarse-level states. `--start-from` reads these; so does mgcloth_bench_shell_roundoff.
+struct ShellBenchState {
+  std::string file, shell;
+  int level = 0;
+  VecX x;
+  std::vector<VecX> levels;  ///< coarsest first, as Rmtr::level_states()
+};
+
+/// Reads and checks a state file (format, fields, "x" of "dofs" finite entries); throws InputError naming the file.
+ShellBenchState read_shell_bench_state(const std::string& file);
+
 /// The scene as the shell benchmarks run it: its shells only, each at `level` (0: the scene's), solved by `spec`
 /// with the scene's stopping criterion, and opt's time step (one step per frame), caps and threads where they are
 /// set; one frame.
