@@ -234,3 +234,37 @@ TEST(NonlinearFmg, FactoryNamesAndParameters) {
   EXPECT_THROW(by_name("gs-chebyshev", {{"pre_smooth", 2}}), InputError);  // single level: "sweeps"
   EXPECT_THROW(by_name("fmg", {{"chebyshev_rho", 1.0}}), InputError);
 }
+
+TEST(NonlinearFmg, AClothAtRestIsNotAnErrorForAnySolver) {
+  // The cloth hangs at rest: the step's prediction is its static equilibrium, so the gradient at the start is
+  // round-off, and rel_grad 1e-7 of it is out of reach. Every solver must end converged or stagnated there, not
+  // throw (fmg used to: "no search direction decreased the energy in cycle 1 (relative 1.0)").
+  auto s = make_step(400);
+  VecX rest;
+  {
+    auto statics = hanging(400, 0.0);
+    solvers::Newton newton;
+    solvers::Problem problem;
+    problem.objective = &statics->objective;
+    rest = statics->x0;
+    solvers::Stop stop;
+    stop.rel_grad = 1e-13;
+    stop.max_iters = 500;
+    newton.minimize(problem, rest, stop, nullptr);
+  }
+  for (const auto& term : s.cloth->objective.terms())
+    if (auto* inertia = dynamic_cast<physics::InertiaTerm*>(term.get())) inertia->set_prediction(rest, 1.0 / 30.0);
+  s.cloth->x0 = rest;
+  VecX g;
+  s.cloth->objective.gradient(rest, g);
+  const double floor = physics::gradient_roundoff(s.cloth->objective, rest, 4).back().change_max;
+  ASSERT_LT(g.norm(), 100 * floor) << "the start is not at rest";
+  for (const std::string name : {"fmg", "newton-direct", "newton-mg"}) {
+    auto solver = by_name(name);
+    VecX x;
+    solvers::SolveReport rep;
+    ASSERT_NO_THROW(rep = run(*solver, s, x, 1e-7, 50)) << name;
+    EXPECT_TRUE(rep.status == "converged" || rep.status == "stagnated") << name << ": " << rep.status;
+    EXPECT_LT((x - rest).norm(), 1e-9 * rest.norm()) << name;
+  }
+}

@@ -125,12 +125,21 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
     logger().debug("fas cycle {:3d}: E = {:.12e}  |g| = {:.3e}", k + 1, e, gnorm);
     if (!(e < e_before) && gnorm > target) {
+      double floor = 0.0;
+      if (at_roundoff_floor(obj, x, gnorm, &floor)) {
+        rep.status = "stagnated";
+        ++k;
+        break;
+      }
+      if (steepest_descent_fallback(obj, nullptr, x, e, g, gnorm)) continue;
       if (gnorm <= 1e-5 * rep.initial_grad_norm) {
         rep.status = "stalled";
         ++k;
         break;
       }
-      throw SolveError(fmt::format("fas: a V-cycle did not decrease the energy in cycle {} (|g| = {:.3e})", k + 1, gnorm));
+      throw SolveError(fmt::format("fas: a V-cycle did not decrease the energy in cycle {} (|g| = {:.3e}, {:.0f}x the "
+                                   "gradient's round-off floor); tried: the V-cycle, a steepest-descent step",
+                                   k + 1, gnorm, floor > 0 ? gnorm / floor : 0.0));
     }
   }
   finish_report(rep, k, e, gnorm, target, timer.ms());

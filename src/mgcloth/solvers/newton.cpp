@@ -102,7 +102,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       obj.gradient(trial, g_trial);
       const double gn = g_trial.norm();
       if (!(gn < gnorm)) {
-        rep.status = "stalled";
+        rep.status = at_roundoff_floor(obj, x, gnorm) ? "stagnated" : "stalled";
         break;
       }
       x.swap(trial);
@@ -116,12 +116,23 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope);
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
+      double floor = 0.0;
+      if (at_roundoff_floor(obj, x, gnorm, &floor)) {
+        rep.status = "stagnated";
+        break;
+      }
+      if (steepest_descent_fallback(obj, &m_hessian, x, e, g, gnorm)) {
+        check_finite(m_name, e, gnorm, k + 1);
+        if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 0.0});
+        continue;
+      }
       if (gnorm <= 1e-5 * rep.initial_grad_norm) {
         rep.status = "stalled";
         break;
       }
-      throw SolveError(fmt::format("Newton: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e})", k,
-                                   gnorm, gnorm / rep.initial_grad_norm));
+      throw SolveError(fmt::format("{}: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e}, {:.0f}x the "
+                                   "gradient's round-off floor); tried: the Newton step, a steepest-descent step",
+                                   m_name, k, gnorm, gnorm / rep.initial_grad_norm, floor > 0 ? gnorm / floor : 0.0));
     }
     x.swap(trial);
     const double decrease = e - ls.energy;

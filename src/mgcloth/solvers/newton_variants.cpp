@@ -93,7 +93,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
       trial = x + p;
       obj.gradient(trial, g_trial);
       if (!(g_trial.norm() < gnorm)) {
-        rep.status = "stalled";
+        rep.status = at_roundoff_floor(obj, x, gnorm) ? "stagnated" : "stalled";
         break;
       }
       x.swap(trial);
@@ -103,12 +103,22 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     const auto ls = backtracking(energy, x, e, p, slope, 1.0, m_params.line_search, trial);
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
+      double floor = 0.0;
+      if (at_roundoff_floor(obj, x, gnorm, &floor)) {
+        rep.status = "stagnated";
+        break;
+      }
+      if (steepest_descent_fallback(obj, nullptr, x, e, g, gnorm)) {
+        advance(k, 0.0);
+        continue;
+      }
       if (gnorm <= 1e-5 * rep.initial_grad_norm) {
         rep.status = "stalled";
         break;
       }
-      throw SolveError(fmt::format("{}: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e})", m_name, k,
-                                   gnorm, gnorm / rep.initial_grad_norm));
+      throw SolveError(fmt::format("{}: line search failed at iteration {} (|g| = {:.3e}, relative {:.3e}, {:.0f}x the "
+                                   "gradient's round-off floor); tried: the Newton step, a steepest-descent step",
+                                   m_name, k, gnorm, gnorm / rep.initial_grad_norm, floor > 0 ? gnorm / floor : 0.0));
     }
     x.swap(trial);
     advance(k, ls.alpha);

@@ -337,19 +337,77 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
     logger().debug("{} cycle {:3d}: E = {:.12e}  |g| = {:.3e}  directions {} rejected {}", m_name, k + 1, e, gnorm,
                    m_stats.directions, m_stats.rejected);
     if (moved == 0 && !done) {
-      // No direction decreased the energy: a matrix too stale to help (retry with a fresh one), or round-off near
-      // a minimum.
+      // No direction decreased the energy: a matrix too stale to help (retry with a fresh one), the limiting
+      // accuracy (round-off), or a model that misleads every direction (fall back to steepest descent and go on).
       if (!fresh_matrix && m_params.line_search) {
         force_update = true;
         continue;
+      }
+      double floor = 0.0;
+      if (at_roundoff_floor(obj, x, gnorm, &floor)) {
+        rep.status = "stagnated";
+        ++k;
+        break;
+      }
+      if (m_params.line_search && steepest_descent_fallback(obj, &m_A, x, e, g, gnorm)) {
+        if (problem.project && problem.project(x) > 0) refresh(false, 0.0);
+        r = -g;
+        have_s = false;
+        std::fill(m_beta.begin(), m_beta.end(), 1.0);
+        ++m_stats.fallbacks;
+        force_update = true;
+        check_finite(m_name, e, gnorm, k + 1);
+        if (rho > 0.0) x_prev = x;
+        continue;
+      }
+      // The Newton step of the model, solved by V-cycles to a residual of 1e-3. Where even its predicted decrease is
+      // below the round-off of the energy sum, the energy cannot tell better from worse (the limiting accuracy of
+      // a line search): the step is judged by the gradient norm, and if that fails too the solve has stagnated.
+      {
+        VecX c = VecX::Zero(x.size()), Ac;
+        for (int it = 0; it < 30; ++it) {
+          if (m_params.single_level) m_mg->smooth(0, r, c, 20);  // no coarse levels to cycle through
+          else m_mg->vcycle(r, c);
+          m_A.multiply(c, Ac);
+          if ((r - Ac).norm() <= 1e-3 * gnorm) break;
+        }
+        const double predicted = 0.5 * c.dot(r);
+        double magnitude = 0.0;
+        for (const auto& [name, value] : obj.term_values(x)) magnitude += std::abs(value);
+        const bool below_noise = !(predicted > 1e-13 * magnitude);
+        trial = x + c;
+        if (problem.project) problem.project(trial);
+        const double et = energy(trial);
+        VecX g_trial;
+        obj.gradient(trial, g_trial);
+        if (std::isfinite(et) && (et < e || (below_noise && g_trial.norm() < gnorm))) {
+          x.swap(trial);
+          e = et;
+          g.swap(g_trial);
+          gnorm = g.norm();
+          r = -g;
+          have_s = false;
+          ++m_stats.fallbacks;
+          force_update = true;
+          check_finite(m_name, e, gnorm, k + 1);
+          if (rho > 0.0) x_prev = x;
+          continue;
+        }
+        if (below_noise) {
+          rep.status = "stagnated";
+          ++k;
+          break;
+        }
       }
       if (gnorm <= 1e-3 * rep.initial_grad_norm) {
         rep.status = "stalled";
         ++k;
         break;
       }
-      throw SolveError(fmt::format("{}: no search direction decreased the energy in cycle {} (|g| = {:.3e}, relative {:.3e})",
-                                   m_name, k + 1, gnorm, gnorm / rep.initial_grad_norm));
+      throw SolveError(fmt::format("{}: no search direction decreased the energy in cycle {} (|g| = {:.3e}, relative "
+                                   "{:.3e}, {:.0f}x the gradient's round-off floor); tried: a fresh Hessian, every "
+                                   "level's correction, a steepest-descent step, the model's Newton step",
+                                   m_name, k + 1, gnorm, gnorm / rep.initial_grad_norm, floor > 0 ? gnorm / floor : 0.0));
     }
   }
   finish_report(rep, k, e, gnorm, target, timer.ms());
@@ -362,6 +420,7 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
                   {"energy_evals", static_cast<double>(m_stats.energy_evals)},
                   {"matrix_updates", static_cast<double>(m_stats.matrix_updates)},
                   {"refreshes", static_cast<double>(m_stats.refreshes)},
+                  {"fallbacks", static_cast<double>(m_stats.fallbacks)},
                   {"skipped_fraction", relaxations > 0.0 ? m_stats.rows_skipped / relaxations : 0.0},
                   {"assembly_ms", m_stats.assembly_ms},
                   {"galerkin_ms", m_stats.galerkin_ms},

@@ -84,6 +84,7 @@ class NonlinearFMG final : public NonlinearSolver {
     long energy_evals = 0;       ///< line-search energy evaluations
     long matrix_updates = 0;
     long refreshes = 0;          ///< matrix updates within a cycle (refresh_below)
+    long fallbacks = 0;          ///< steepest-descent steps after a cycle in which no direction decreased the energy
     double rows_relaxed = 0.0;   ///< block-row relaxations done by the smoothers of nonlinear levels
     double rows_skipped = 0.0;   ///< and skipped by the adaptive mask
     double assembly_ms = 0.0, galerkin_ms = 0.0, smoothing_ms = 0.0, linear_ms = 0.0, transfer_ms = 0.0,

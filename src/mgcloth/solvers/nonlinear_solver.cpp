@@ -1,5 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/interrupt.hpp>
+#include <mgcloth/solvers/line_search.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <cmath>
@@ -30,6 +31,47 @@ bool update_constant_matrix(const physics::Objective& objective, const VecX& x, 
   if (scratch.blocks() == A.blocks()) return false;
   std::swap(A, scratch);
   return true;
+}
+
+bool at_roundoff_floor(const physics::Objective& objective, const VecX& x, double grad_norm, double* floor) {
+  const auto rows = physics::gradient_roundoff(objective, x, 4);
+  const double f = rows.back().change_max;
+  if (floor) *floor = f;
+  return grad_norm <= kRoundoffFloorFactor * f;
+}
+
+bool steepest_descent_fallback(const physics::Objective& objective, const linalg::BlockMatrix3* A, VecX& x, double& e,
+                               VecX& g, double& grad_norm) {
+  const VecX d = -g;
+  const double gg = g.squaredNorm();
+  if (!(gg > 0.0)) return false;
+  double alpha = 0.0;
+  if (A) {
+    VecX Ad;
+    A->multiply(d, Ad);
+    const double dAd = d.dot(Ad);
+    if (dAd > 0.0) alpha = gg / dAd;
+  }
+  if (!(alpha > 0.0)) {
+    // Secant curvature along −g from a probe a millionth of the gradient's length scale.
+    const double probe = 1e-6 / std::sqrt(gg);
+    VecX gp;
+    objective.gradient(x + probe * d, gp);
+    const double curvature = (gp - g).dot(d) / probe;
+    alpha = curvature > 0.0 ? gg / curvature : probe;
+  }
+  const auto energy = [&](const VecX& y) { return objective.value(y); };
+  LineSearchParams ls;
+  ls.max_steps = 60;
+  ls.expand_ratio = 0.0;
+  VecX trial;
+  const auto r = backtracking(energy, x, e, d, -gg, alpha, ls, trial);
+  if (!r.success || !(r.energy < e)) return false;
+  x.swap(trial);
+  e = r.energy;
+  objective.gradient(x, g);
+  grad_norm = g.norm();
+  return std::isfinite(grad_norm);
 }
 
 void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms) {
