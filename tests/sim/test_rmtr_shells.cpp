@@ -46,7 +46,7 @@ Solved solve_first_step(const sim::Scene& base, const std::string& solver, const
 // the Drape (whose ramped corner targets and inertia are set on each level) at a perturbed state.
 TEST(Rmtr, CoarseModelIsFirstOrderConsistent) {
   sim::Scene scene = shell_scene("drape", 3);
-  scene.solver.name = "rmtr";
+  scene.solver.name = "rmtr-paper";
   sim::Simulator sim(scene);
   VecX x;
   sim.prepare_shell_problem(0, x);
@@ -77,7 +77,7 @@ TEST(Rmtr, CoarseModelIsFirstOrderConsistent) {
 // level's norm (eq. 4.9), whether or not it is accepted; and the fine energy never increases (eq. 4.11 with η1 > 0).
 TEST(Rmtr, CoarseCorrectionsStayInTheFineTrustRegionAndEnergyDecreases) {
   sim::Scene scene = shell_scene("drooping", 3);
-  scene.solver.name = "rmtr";
+  scene.solver.name = "rmtr-paper";
   sim::Simulator sim(scene);
   VecX x;
   solvers::Problem problem = sim.prepare_shell_problem(0, x);
@@ -113,7 +113,7 @@ TEST(Rmtr, ConvergesToTheSameSolutionAsTheDoglegTrustRegion) {
   ASSERT_TRUE(tr.report.converged) << tr.report.status;
   for (const std::string projection : {"reverse_subdivision", "least_squares"}) {
     const Solved ml = solve_first_step(
-        scene, "rmtr", Json{{"scaling", "jacobi"}, {"smoother_cg_iters", 100}, {"projection", projection}}, 500);
+        scene, "rmtr-paper", Json{{"scaling", "jacobi"}, {"smoother_cg_iters", 100}, {"projection", projection}}, 500);
     // Converged, or stopped by (7.1)'s round-off clause just above the target: 100 Jacobi-CG iterations do not
     // always lower ‖g‖ once energy differences are round-off (|f| ≈ 0.04 J, ‖g‖ ≈ 1e-7).
     ASSERT_TRUE(ml.report.converged || (ml.report.status == "stalled" && ml.report.grad_norm < 5e-7))
@@ -130,7 +130,7 @@ TEST(Rmtr, ConvergesToTheSameSolutionAsTheDoglegTrustRegion) {
 TEST(Rmtr, PatchSmootherConvergesInAFewCyclesOnTheTrampoline) {
   const sim::Scene scene = shell_scene("trampoline", 3);
   const Solved tr = solve_first_step(scene, "tr-dogleg");
-  const Solved ml = solve_first_step(scene, "rmtr", Json{{"smoother", "schwarz"}, {"smoother_sweeps", 1}}, 30);
+  const Solved ml = solve_first_step(scene, "rmtr-paper", Json{{"smoother", "schwarz"}, {"smoother_sweeps", 1}}, 30);
   ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles";
   EXPECT_LE(ml.report.iterations, 15);
   EXPECT_LT((ml.x - tr.x).lpNorm<Eigen::Infinity>(), 1e-5);
@@ -142,7 +142,7 @@ TEST(Rmtr, PatchSmootherConvergesInAFewCyclesOnTheTrampoline) {
 TEST(Rmtr, NestedIterationStartsFromTheCoarseSolutionsAndReachesTheSameMinimizer) {
   sim::Scene scene = shell_scene("trampoline", 3);
   const Solved tr = solve_first_step(scene, "tr-dogleg");
-  scene.solver.name = "rmtr";
+  scene.solver.name = "rmtr-paper";
   scene.solver.params = Json{{"smoother", "schwarz"}, {"smoother_sweeps", 1}, {"initial", "nested"}};
   scene.solver.stop.max_iters = 30;
   sim::Simulator sim(scene);
@@ -173,7 +173,7 @@ TEST(Rmtr, NestedIterationStartsFromTheCoarseSolutionsAndReachesTheSameMinimizer
 // ‖g‖ < 1e-7 in tens of V-cycles (measured 34; the paper's RMTR needs 4,671 and our single-level dogleg TR 530).
 TEST(Rmtr, NestedIterationWithNewtonSmoothingSolvesLargeMotionInFewCycles) {
   const sim::Scene scene = shell_scene("drooping", 2);
-  const Solved ml = solve_first_step(scene, "rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}}, 150);
+  const Solved ml = solve_first_step(scene, "rmtr-paper", Json{{"smoother", "dogleg"}, {"initial", "nested"}}, 150);
   ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles, |g| = "
                                    << ml.report.grad_norm;
   EXPECT_LT(ml.report.grad_norm, 1e-7);
@@ -192,7 +192,7 @@ TEST(Rmtr, NewtonStepsAtTheLimitingAccuracyStopTheVCyclesByTheSecondClause) {
   ASSERT_TRUE(tr.report.converged) << tr.report.status;
   scene.solver.stop.abs_grad = 0.0;
   scene.solver.stop.rel_grad = 0.0;
-  const Solved ml = solve_first_step(scene, "rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}}, 200);
+  const Solved ml = solve_first_step(scene, "rmtr-paper", Json{{"smoother", "dogleg"}, {"initial", "nested"}}, 200);
   EXPECT_EQ(ml.report.status, "stagnated") << "after " << ml.report.iterations << " cycles";
   EXPECT_TRUE(ml.report.converged);
   EXPECT_LT(ml.report.iterations, 50);
@@ -209,7 +209,7 @@ TEST(Rmtr, StagnatedSolvesStopAtTheGradientsRoundOffFloor) {
   scene.shells[0].beta = 1e12;
   ASSERT_EQ(scene.solver.stop.abs_grad, 1e-7);
   for (const auto& [solver, params] : {std::pair<std::string, Json>{"tr-dogleg", Json::object()},
-                                       {"rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}}}}) {
+                                       {"rmtr-paper", Json{{"smoother", "dogleg"}, {"initial", "nested"}}}}) {
     sim::Scene sc = scene;
     sc.solver.name = solver;
     sc.solver.params = params;
@@ -234,7 +234,7 @@ TEST(Rmtr, StagnatedSolvesStopAtTheGradientsRoundOffFloor) {
 TEST(Rmtr, KeptCoarseStartsReachTheSameMinimizer) {
   const sim::Scene scene = shell_scene("drooping", 2);
   const Solved ml = solve_first_step(
-      scene, "rmtr",
+      scene, "rmtr-paper",
       Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"projection", "least_squares"}, {"coarse_start", "best"}},
       150);
   ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles, |g| = "
@@ -251,7 +251,7 @@ TEST(Rmtr, KeptCoarseStartsReachTheSameMinimizer) {
 // depth); level_states() hands those states to a resumed solve, which starts its first V-cycle from them too.
 TEST(Rmtr, CoarseLevelsStartFromTheirNestedSolutionsAndResumeFromTheirStates) {
   sim::Scene scene = shell_scene("drooping", 2);
-  scene.solver.name = "rmtr";
+  scene.solver.name = "rmtr-paper";
   scene.solver.params = Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}};
   scene.solver.stop.max_iters = 1;
   sim::Simulator sim(scene);
@@ -287,7 +287,7 @@ TEST(Rmtr, CoarseLevelsStartFromTheirNestedSolutionsAndResumeFromTheirStates) {
 // the same minimizer as the dogleg TR on a small problem.
 TEST(Rmtr, ExactTrustRegionSmootherReachesTheSameMinimizer) {
   const sim::Scene scene = shell_scene("trampoline", 2);
-  const Solved ml = solve_first_step(scene, "rmtr", Json{{"smoother", "exact"}, {"coarsest_qp", "exact"},
+  const Solved ml = solve_first_step(scene, "rmtr-paper", Json{{"smoother", "exact"}, {"coarsest_qp", "exact"},
                                                          {"initial", "nested"}}, 150);
   ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles";
   const Solved tr = solve_first_step(scene, "tr-dogleg");
@@ -303,7 +303,7 @@ TEST(Rmtr, ExactTrustRegionSmootherReachesTheSameMinimizer) {
 TEST(Rmtr, NestedIterationSolvesTheCoarsestLevelWhateverItsStartGradient) {
   const sim::Scene scene = shell_scene("drape", 3);
   const Json params{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}};
-  const Solved nested = solve_first_step(scene, "rmtr", params, 0);
+  const Solved nested = solve_first_step(scene, "rmtr-paper", params, 0);
   EXPECT_EQ(nested.report.iterations, 0);
   EXPECT_LT(nested.report.energy, -1.84) << "energy after nested iteration";
   double coarsest = -1.0, middle = -1.0;
@@ -321,7 +321,7 @@ TEST(Rmtr, NestedIterationSolvesTheCoarsestLevelWhateverItsStartGradient) {
 TEST(Rmtr, RadiusShiftReachesTheHangingState) {
   const sim::Scene scene = shell_scene("drooping", 2);
   const Solved ml = solve_first_step(
-      scene, "rmtr", Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}, {"shift", "radius"}},
+      scene, "rmtr-paper", Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"}, {"shift", "radius"}},
       150);
   ASSERT_TRUE(ml.report.converged) << ml.report.status << " after " << ml.report.iterations << " cycles, |g| = "
                                    << ml.report.grad_norm;
@@ -335,7 +335,7 @@ TEST(Rmtr, RadiusShiftReachesTheHangingState) {
 TEST(Rmtr, BacktrackedCoarseCorrectionsKeepTheEnergyDecreasingAndReachTheHangingState) {
   const sim::Scene scene = shell_scene("drooping", 2);
   sim::Scene s = scene;
-  s.solver.name = "rmtr";
+  s.solver.name = "rmtr-paper";
   s.solver.params = Json{{"smoother", "dogleg"}, {"initial", "nested"}, {"coarse_start", "best"},
                          {"correction_backtracking", 3}};
   s.solver.stop.max_iters = 150;
@@ -360,7 +360,7 @@ TEST(Rmtr, BacktrackedCoarseCorrectionsKeepTheEnergyDecreasingAndReachTheHanging
 TEST(Rmtr, BadParametersNameTheField) {
   const auto expect_error = [](const Json& params, const std::string& field) {
     solvers::SolverConfig c;
-    c.name = "rmtr";
+    c.name = "rmtr-paper";
     c.params = params;
     try {
       solvers::make_solver(c, "scene.json", "solver.params");

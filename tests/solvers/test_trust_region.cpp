@@ -644,3 +644,24 @@ TEST(ShellSolvers, FactoryBuildsEveryNameAndRejectsBadParameters) {
   const auto rb = by_name("tr-dogleg", {{"delta0", 1e-4}, {"gamma2", 1.1}})->minimize(problem, b, tight(), nullptr);
   EXPECT_GT(rb.iterations, ra.iterations + 20);
 }
+
+TEST(Rmtr, TheBareNameRunsTheBestMeasuredConfigurationAndThePapersHasItsOwnName) {
+  const auto resolved = [](const std::string& name) {
+    solvers::SolverConfig c;
+    c.name = name;
+    return solvers::resolved_params(c, "test", "solver.params");
+  };
+  const Json best = resolved("rmtr"), paper = resolved("rmtr-paper");
+  EXPECT_EQ(best["smoother"], "dogleg");
+  EXPECT_EQ(best["initial"], "nested");
+  EXPECT_EQ(best["coarse_start"], "best");
+  EXPECT_EQ(best["hessian"], "hybrid");
+  EXPECT_EQ(paper["smoother"], "stcg");
+  EXPECT_EQ(paper["initial"], "fine");
+  EXPECT_EQ(paper["coarse_start"], "projection");
+  // Parameters still override either.
+  solvers::SolverConfig c;
+  c.name = "rmtr";
+  c.params = Json{{"smoother", "schwarz"}};
+  EXPECT_EQ(solvers::resolved_params(c, "test", "solver.params")["smoother"], "schwarz");
+}

@@ -213,7 +213,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           bool any = false;
           for (size_t s = 0; s < scene.shells.size(); ++s)
             if (fs::exists(state_path(opt, scene.shells[s].name, level, spec.label))) any = true;
-          if (any && scene.solver.name == "rmtr") scene.solver.params["initial"] = "fine";
+          if (any && scene.solver.name.starts_with("rmtr")) scene.solver.params["initial"] = "fine";
         }
         // A solve that starts from a coarser solution skips nested iteration: projections of the prolongated
         // solution would restart the coarse levels from what it already solved, with coarse energies of 1e40 J
@@ -221,7 +221,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
         // them start from coarser solves or none.
         size_t with_start = 0;
         for (const auto& sh : scene.shells) with_start += start_for(sh.name, level) ? 1 : 0;
-        if (with_start > 0 && scene.solver.name == "rmtr") {
+        if (with_start > 0 && scene.solver.name.starts_with("rmtr")) {
           if (with_start < scene.shells.size())
             throw_input_error("--start-from: {} has {} shells and starts for {} of them at level {}; RMTR without "
                               "nested iteration needs a start for each", base.file, scene.shells.size(), with_start,

@@ -340,6 +340,20 @@ ExactNewtonParams exact_newton_preset(const std::string& name) {
   return p;
 }
 
+/// `rmtr` is the best measured configuration for large motion (bench/RESULTS.md, Table 4 at 4–7 levels): dogleg
+/// smoothing, nested iteration, the better of two coarse starts and the hybrid Hessian. `rmtr-paper` is
+/// Kopaničáková 2019's own (ST-CG smoothing from the fine start), far slower on every scenario measured.
+RmtrParams rmtr_preset(const std::string& name) {
+  RmtrParams p;
+  if (name == "rmtr") {
+    p.smoother_qp = TrQp::Dogleg;
+    p.initial = "nested";
+    p.coarse_start = "best";
+    p.tr.hybrid_hessian = true;
+  }
+  return p;
+}
+
 enum class Kind { Newton, Fmg, FmgCuda, Fas, TrustRegion, ExactNewton, Rmtr };
 Kind kind_of(const std::string& name) {
   if (name == "newton" || name == "newton-direct" || name == "newton-amg" || name == "newton-mg" || name == "pd-direct")
@@ -347,7 +361,7 @@ Kind kind_of(const std::string& name) {
   if (name == "fas") return Kind::Fas;
   if (name == "fmg-cuda") return Kind::FmgCuda;
   if (name == "tr" || name == "tr-dogleg" || name == "tr-stcg") return Kind::TrustRegion;
-  if (name == "rmtr") return Kind::Rmtr;
+  if (name == "rmtr" || name == "rmtr-paper") return Kind::Rmtr;
   if (name == "newton-ls" || name == "newton-damped" || name == "linearized") return Kind::ExactNewton;
   return Kind::Fmg;
 }
@@ -356,7 +370,7 @@ Kind kind_of(const std::string& name) {
 
 std::vector<std::string> solver_names() {
   return {"fmg", "fmg-cuda", "newton-direct", "newton-amg", "newton-mg", "fas", "gs-chebyshev", "pd-direct", "pd-gs-chebyshev",
-          "pd-fmg", "newton", "tr", "tr-dogleg", "tr-stcg", "rmtr", "newton-ls", "newton-damped", "linearized"};
+          "pd-fmg", "newton", "tr", "tr-dogleg", "tr-stcg", "rmtr", "rmtr-paper", "newton-ls", "newton-damped", "linearized"};
 }
 
 namespace {
@@ -389,7 +403,7 @@ std::unique_ptr<NonlinearSolver> make_solver(const SolverConfig& c, const std::s
     case Kind::ExactNewton:
       s = std::make_unique<ExactNewton>(read_exact_newton(r, exact_newton_preset(c.name)), c.name);
       break;
-    case Kind::Rmtr: s = std::make_unique<Rmtr>(read_rmtr(r, RmtrParams{})); break;
+    case Kind::Rmtr: s = std::make_unique<Rmtr>(read_rmtr(r, rmtr_preset(c.name)), c.name); break;
   }
   r.finish();
   return s;
@@ -406,7 +420,7 @@ Json resolved_params(const SolverConfig& c, const std::string& file, const std::
     case Kind::Fas: j = write_fas(read_fas(r, FasParams{})); break;
     case Kind::TrustRegion: j = write_trust_region(read_trust_region(r, trust_region_preset(c.name))); break;
     case Kind::ExactNewton: j = write_exact_newton(read_exact_newton(r, exact_newton_preset(c.name))); break;
-    case Kind::Rmtr: j = write_rmtr(read_rmtr(r, RmtrParams{})); break;
+    case Kind::Rmtr: j = write_rmtr(read_rmtr(r, rmtr_preset(c.name))); break;
   }
   r.finish();
   return j;
