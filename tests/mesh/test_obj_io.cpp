@@ -159,6 +159,53 @@ TEST(ObjIo, GarbageFile) {
   EXPECT_TRUE(throws_input_error([&] { read_obj(short_face); }, {short_face.string(), "line 5", "fewer than three"}));
 }
 
+// tinyobjloader alone reads all of these without a word: a bad number as 0, a short statement padded with zeros,
+// "3.5" and "3x" as 3, 4294967299 wrapped to 3. Each is an error naming the line, also for `mgcloth info`
+// (check = false), and a non-finite coordinate is reported as such, not as the zero-area triangle it would make.
+TEST(ObjIo, MalformedStatementsNameTheLine) {
+  test::TempDir dir;
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  const struct {
+    std::string name, text;
+    std::vector<std::string> parts;
+  } cases[] = {
+      {"nan", "v nan 1 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", {"line 1", "`v` coordinate 1 is not finite", "\"nan\""}},
+      {"inf", tri + "v 1 -inf 0\nf 1 2 3\n", {"line 4", "`v` coordinate 2 is not finite", "\"-inf\""}},
+      {"overflow", tri + "v 1 1 1e400\nf 1 2 3\n", {"line 4", "coordinate 3 is not finite", "1e400"}},
+      {"garbage", "v 0 0 0\nv 1 0 0\nv 0 abc 0\nf 1 2 3\n", {"line 3", "`v` coordinate 2 is not a number", "\"abc\""}},
+      {"trailing", "v 0 0 0\nv 1 0 0\nv 0 1.5x 0\nf 1 2 3\n", {"line 3", "coordinate 2 is not a number", "1.5x"}},
+      {"short_v", "v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n", {"line 3", "`v` needs 3 coordinates", "got 2 numbers"}},
+      {"long_v", "v 0 0 0 1 2\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", {"line 1", "`v` needs 3 coordinates", "got 5"}},
+      {"short_vt", tri + "vt 0 0\nvt 1\nvt 0 1\nf 1/1 2/2 3/3\n", {"line 5", "`vt` needs 2 coordinates", "got 1 number"}},
+      {"nan_vt", tri + "vt 0 0\nvt 1 0\nvt NaN 1\nf 1/1 2/2 3/3\n", {"line 6", "`vt` coordinate 1 is not finite"}},
+      {"bad_vn", tri + "vn 0 0 x\nf 1//1 2//1 3//1\n", {"line 4", "`vn` coordinate 3 is not a number"}},
+      {"fraction", tri + "f 1 2 3.5\n", {"line 4", "`f` statement", "corner 3 (\"3.5\")", "not an integer"}},
+      {"suffix", tri + "f 1 2 3x\n", {"line 4", "corner 3 (\"3x\")", "vertex index is not an integer"}},
+      {"wrap", tri + "f 1 2 4294967299\n", {"line 4", "corner 3 (\"4294967299\")", "out of range"}},
+      {"huge", tri + "f 1 2 99999999999999999999999\n", {"line 4", "corner 3", "out of range"}},
+      {"zero", tri + "f 0 1 2\n", {"line 4", "corner 1", "is 0"}},
+      {"vt_index", tri + "vt 0 0\nf 1/1 2/1x 3/1\n", {"line 5", "corner 2", "texture-coordinate index is not an integer"}},
+      {"empty_vt", tri + "f 1/ 2/ 3/\n", {"line 4", "corner 1", "texture-coordinate index is missing"}},
+      {"four_indices", tri + "f 1/1/1/1 2 3\n", {"line 4", "corner 1", "more than three indices"}},
+      {"nul", tri + std::string("f 1 2 3\0\n", 9), {"line 4", "corner 3 (\"3?\")"}},
+  };
+  for (const auto& c : cases) {
+    const auto path = dir.file(c.name + ".obj", c.text);
+    std::vector<std::string> parts = c.parts;
+    parts.push_back(path.string() + ": line ");
+    EXPECT_TRUE(throws_input_error([&] { read_obj(path); }, parts)) << c.name;
+    EXPECT_TRUE(throws_input_error([&] { read_obj(path, 1.0, /*check=*/false); }, parts)) << c.name;
+  }
+  // What stays legal: comments after a statement, a leading '+', CRLF line ends, a weight or a colour on `v`,
+  // relative indices, an underflowing coordinate (it reads as the nearest double, 0).
+  const auto ok = dir.file("ok.obj",
+                           "v +0 0 0 1 # origin\r\nv 1 0 0 0.5 0.5 0.5\r\nv 0 1 1e-400\r\nvt 0 0 0\r\nvt 1 0\r\n"
+                           "vt 0 1\r\nf -3/-3 -2/-2 -1/-1\r\n");
+  const TriMesh m = read_obj(ok);
+  EXPECT_EQ(m.num_triangles(), 1);
+  EXPECT_EQ(m.x(2, 2), 0.0);
+}
+
 TEST(ObjIo, FaceIndexOutOfRange) {
   test::TempDir dir;
   const auto path = dir.file("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\nf 1 2 3\nf 2 4 9\n");

@@ -231,5 +231,15 @@ TEST(QuadObj, BadFilesNameTheFileAndElement) {
   EXPECT_NE(error_of(unused).find("point 5 belongs to no quad"), std::string::npos) << error_of(unused);
 }
 
+// The control mesh is read as strictly as a cloth's OBJ (check_obj_statements): tinyobjloader alone reads "nan" as
+// 0 and "4x" as 4.
+TEST(QuadObj, MalformedStatementsNameTheLine) {
+  const auto nan = write_temp("nan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 nan 0\nf 1 2 4 3\n");
+  EXPECT_NE(error_of(nan).find("nan.obj: line 4: `v` coordinate 2 is not finite"), std::string::npos) << error_of(nan);
+  const auto index = write_temp("index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4x 3\n");
+  EXPECT_NE(error_of(index).find("index.obj: line 5: cannot parse the `f` statement: corner 3"), std::string::npos)
+      << error_of(index);
+}
+
 }  // namespace
 }  // namespace mgcloth::mesh

@@ -9,10 +9,16 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
+#include <charconv>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
+#include <initializer_list>
 #include <iterator>
+#include <optional>
 #include <regex>
 #include <sstream>
+#include <string_view>
 
 namespace mgcloth::mesh {
 
@@ -54,23 +60,6 @@ Index line_of_face(const std::string& text, Index face) {
   return 0;
 }
 
-/// The first face statement with fewer than three corners (tinyobjloader drops those with a bare warning).
-Index line_of_short_face(const std::string& text) {
-  std::istringstream in(text);
-  std::string l;
-  Index line = 0;
-  while (std::getline(in, l)) {
-    ++line;
-    std::istringstream words(l);
-    std::string w;
-    if (!(words >> w) || w != "f") continue;
-    int n = 0;
-    while (words >> w) ++n;
-    if (n < 3) return line;
-  }
-  return 0;
-}
-
 std::string face_location(const std::string& text, Index face) {
   const Index line = line_of_face(text, face);
   return line > 0 ? fmt::format("line {}", line) : fmt::format("face {}", face + 1);
@@ -83,20 +72,98 @@ bool is_benign_warning(const std::string& line) {
          line.rfind("Vertex texcoord indices out of bounds", 0) == 0 || line.rfind("Empty group name", 0) == 0;
 }
 
-void check_warnings(const std::string& warn, const std::string& text, const std::string& source) {
+void check_warnings(const std::string& warn, const std::string& source) {
   std::istringstream in(warn);
   std::string line;
   while (std::getline(in, line)) {
     if (is_benign_warning(line)) continue;
-    if (line.rfind("Degenerated face", 0) == 0) {
-      const Index l = line_of_short_face(text);
-      throw_input_error("{}: {}face with fewer than three vertices", source, l > 0 ? fmt::format("line {}: ", l) : "");
-    }
     if (line.rfind("Vertex normal indices out of bounds", 0) == 0)  // tinyobjloader's line number is the last one
       throw_input_error("{}: a face refers to a vertex normal (vn) that the file does not define", source);
     throw_input_error("{}: {}", source, line);
   }
   if (!warn.empty()) logger().debug("{}: tinyobjloader: {}", source, warn);
+}
+
+/// A token as it can be quoted in a message: control bytes (a NUL, a stray CR) shown as '?', long ones cut.
+std::string quoted(std::string_view token) {
+  std::string s;
+  for (char c : token.substr(0, 32)) s += static_cast<unsigned char>(c) < 0x20 || c == 0x7f ? '?' : c;
+  return fmt::format("\"{}{}\"", s, token.size() > 32 ? "..." : "");
+}
+
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+std::vector<std::string_view> split_words(std::string_view line) {
+  std::vector<std::string_view> words;
+  std::size_t p = 0;
+  while (p < line.size()) {
+    while (p < line.size() && is_blank(line[p])) ++p;
+    std::size_t e = p;
+    while (e < line.size() && !is_blank(line[e])) ++e;
+    if (e > p) words.push_back(line.substr(p, e - p));
+    p = e;
+  }
+  return words;
+}
+
+/// The whole token must be a decimal number; from_chars takes no '+', so one is skipped. Underflow (1e-400) reads
+/// as the nearest double, as strtod gives it; overflow is infinite, so it fails the finiteness check.
+std::optional<double> parse_number(std::string_view token) {
+  std::string_view t = token;
+  if (t.size() > 1 && t[0] == '+' && t[1] != '-') t.remove_prefix(1);
+  double d = 0.0;
+  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), d);
+  if (end != t.data() + t.size()) return std::nullopt;
+  if (ec == std::errc::result_out_of_range) return std::strtod(std::string(t).c_str(), nullptr);
+  if (ec != std::errc()) return std::nullopt;
+  return d;
+}
+
+void check_numbers(const std::vector<std::string_view>& words, std::initializer_list<std::size_t> counts,
+                   std::string_view what, const std::string& where) {
+  const std::string_view key = words[0];
+  const std::size_t n = words.size() - 1;
+  if (std::find(counts.begin(), counts.end(), n) == counts.end())
+    throw_input_error("{}: `{}` needs {}, got {} number{}", where, key, what, n, n == 1 ? "" : "s");
+  for (std::size_t i = 1; i <= n; ++i) {
+    const auto d = parse_number(words[i]);
+    if (!d) throw_input_error("{}: `{}` coordinate {} is not a number: {}", where, key, i, quoted(words[i]));
+    if (!std::isfinite(*d)) throw_input_error("{}: `{}` coordinate {} is not finite: {}", where, key, i, quoted(words[i]));
+  }
+}
+
+/// One index of a face corner: a non-zero integer (negative: relative to the last element) that fits an Index.
+void check_index(std::string_view token, std::string_view which, std::size_t corner, const std::string& where) {
+  long long i = 0;
+  const auto [end, ec] = std::from_chars(token.data(), token.data() + token.size(), i);
+  const auto fail = [&](std::string_view why) {
+    throw_input_error("{}: cannot parse the `f` statement: corner {} ({}): {} index {}", where, corner,
+                      quoted(token), which, why);
+  };
+  if (token.empty()) fail("is missing");
+  if (ec == std::errc::result_out_of_range || (ec == std::errc() && end == token.data() + token.size() &&
+                                               (i > INT_MAX || i < -static_cast<long long>(INT_MAX))))
+    fail(fmt::format("is out of range (at most {})", INT_MAX));
+  if (ec != std::errc() || end != token.data() + token.size()) fail("is not an integer");
+  if (i == 0) fail("is 0 (OBJ indices start at 1; negative ones count back from the last element)");
+}
+
+void check_face(const std::vector<std::string_view>& words, const std::string& where) {
+  if (words.size() < 4) throw_input_error("{}: face with fewer than three vertices", where);
+  for (std::size_t c = 1; c < words.size(); ++c) {
+    const std::string_view corner = words[c];
+    const std::size_t s1 = corner.find('/');
+    const std::size_t s2 = s1 == std::string_view::npos ? s1 : corner.find('/', s1 + 1);
+    if (s2 != std::string_view::npos && corner.find('/', s2 + 1) != std::string_view::npos)
+      throw_input_error("{}: cannot parse the `f` statement: corner {} ({}) has more than three indices", where, c,
+                        quoted(corner));
+    check_index(corner.substr(0, s1), "vertex", c, where);
+    if (s1 == std::string_view::npos) continue;
+    const std::string_view vt = corner.substr(s1 + 1, s2 == std::string_view::npos ? s2 : s2 - s1 - 1);
+    // "v//vn" has an empty texture index; "v/" has neither.
+    if (!vt.empty() || s2 == std::string_view::npos) check_index(vt, "texture-coordinate", c, where);
+    if (s2 != std::string_view::npos) check_index(corner.substr(s2 + 1), "normal", c, where);
+  }
 }
 
 Faces collect_faces(const tinyobj::attrib_t& attrib, const std::vector<tinyobj::shape_t>& shapes,
@@ -185,6 +252,26 @@ void split_vertices(const Faces& faces, Index num_v, TriMesh& mesh, std::vector<
 
 }  // namespace
 
+void check_obj_statements(std::string_view text, const std::string& source) {
+  std::size_t pos = 0;
+  for (Index line = 1; pos < text.size(); ++line) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view l = text.substr(pos, end - pos);
+    pos = end + 1;
+    l = l.substr(0, l.find('#'));  // a comment may follow a statement
+    const auto words = split_words(l);
+    if (words.empty()) continue;
+    const std::string_view key = words[0];
+    if (key != "v" && key != "vt" && key != "vn" && key != "f") continue;
+    const std::string where = fmt::format("{}: line {}", source, line);
+    if (key == "v") check_numbers(words, {3, 4, 6}, "3 coordinates (x y z; optionally a weight w, or a colour r g b)", where);
+    if (key == "vt") check_numbers(words, {2, 3}, "2 coordinates (u v; optionally w)", where);
+    if (key == "vn") check_numbers(words, {3}, "3 coordinates (x y z)", where);
+    if (key == "f") check_face(words, where);
+  }
+}
+
 Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::string& source, std::string_view what,
                      std::string_view remedy) {
   const Vec3 centroid = x.rowwise().mean();
@@ -220,6 +307,8 @@ TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool 
   if (!(material_scale > 0.0) || !std::isfinite(material_scale))
     throw_input_error("{}: material_scale must be positive and finite (got {})", source, material_scale);
   const std::string text = read_file(path);  // InputError "<path>: cannot open file"
+  // tinyobjloader reads what it cannot parse as 0, pads short statements and truncates face indices: check first.
+  check_obj_statements(text, source);
 
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
@@ -239,7 +328,7 @@ TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool 
     const std::string first = err.substr(0, err.find('\n'));
     throw_input_error("{}: {}", source, first.empty() ? "cannot parse" : first);
   }
-  check_warnings(warn, text, source);
+  check_warnings(warn, source);
 
   const Index num_v = static_cast<Index>(attrib.vertices.size() / 3);
   const Faces faces = collect_faces(attrib, shapes, text, source);

@@ -14,6 +14,14 @@ namespace mgcloth::mesh {
 Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::string& source, std::string_view what,
                      std::string_view remedy);
 
+/// The strict syntax check that every OBJ reader here runs before tinyobjloader, which reads a number it cannot
+/// parse as 0, pads short statements with zeros, truncates "3.5" or "3x" to 3 and wraps indices past 2^32. It
+/// requires: `v` with 3 numbers (4 or 6 with a weight or a colour), `vt` with 2 or 3, `vn` with 3, each a finite
+/// decimal number parsed whole; `f` with at least three corners `v`, `v/vt`, `v//vn` or `v/vt/vn`, each index a
+/// non-zero integer of at most 2^31 - 1 in magnitude. Other statements (groups, materials, lines) pass; `#` starts
+/// a comment anywhere. InputError "<source>: line N: …" naming the statement, the coordinate or corner and the token.
+void check_obj_statements(std::string_view text, const std::string& source);
+
 /// Reads a triangle (or polygon, fan-triangulated) OBJ. With `vt`, material coordinates are the vt values times
 /// `material_scale` (metres per UV unit), and vertices are split where a position has several vt (UV seams).
 /// Without vt, a planar mesh is flattened onto its best-fit plane (u in metres); a non-planar one is an error.

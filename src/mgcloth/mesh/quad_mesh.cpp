@@ -292,6 +292,7 @@ void add_ghost_layer(QuadMesh& m) {
 }  // namespace mgcloth::mesh
 
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/mesh/obj_io.hpp>
 
 #include <sstream>
 #include <tiny_obj_loader.h>
@@ -303,6 +304,7 @@ QuadMesh read_quad_obj(const std::filesystem::path& path, double material_scale,
   if (!(material_scale > 0.0) || !std::isfinite(material_scale))
     throw_input_error("{}: material_scale must be positive and finite (got {})", source, material_scale);
   const std::string text = read_file(path);
+  check_obj_statements(text, source);
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;

@@ -1,0 +1,61 @@
+// Hostile input to the `mgcloth` executable (issue 25): each case ends with one clear line naming the file, field,
+// option or element at fault, a non-zero exit, and nothing half-written.
+#include <mgcloth/core/file_io.hpp>
+
+#include "cli_run.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using mgcloth::test::CliResult;
+
+class BadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("mgcloth_bad_input_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string write(const std::string& name, const std::string& content) {
+    std::ofstream(dir / name, std::ios::binary) << content;
+    return (dir / name).string();
+  }
+  std::string out(const std::string& name = "out") const { return (dir / name).string(); }
+  fs::path dir;
+};
+
+/// An error is one line "mgcloth: error: …" containing every part, with exit code 1.
+::testing::AssertionResult fails_with(const CliResult& r, const std::vector<std::string>& parts) {
+  if (r.code != 1) return ::testing::AssertionFailure() << "exit code " << r.code << ": " << r.out;
+  if (r.out.rfind("mgcloth: error: ", 0) != 0 || std::count(r.out.begin(), r.out.end(), '\n') != 1)
+    return ::testing::AssertionFailure() << "not one error line: " << r.out;
+  for (const auto& p : parts)
+    if (r.out.find(p) == std::string::npos) return ::testing::AssertionFailure() << "lacks \"" << p << "\": " << r.out;
+  return ::testing::AssertionSuccess();
+}
+
+}  // namespace
+
+// `mgcloth info` reported "no problems found" for all of these: tinyobjloader had read them as zeros and truncated
+// indices.
+TEST_F(BadInput, InfoRejectsMalformedObjStatementsWithTheLine) {
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + write("nan.obj", "v nan 1 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")),
+                         {"nan.obj: line 1: `v` coordinate 1 is not finite"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + write("short.obj", "v 0 0 0\nv 1 0 0\nv 0 1\nf 1 2 3\n")),
+                         {"short.obj: line 3: `v` needs 3 coordinates"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + write("frac.obj", tri + "f 1 2 3.5\n")),
+                         {"frac.obj: line 4: cannot parse the `f` statement", "\"3.5\"", "not an integer"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + write("wrap.obj", tri + "f 1 2 4294967299\n")),
+                         {"wrap.obj: line 4", "\"4294967299\"", "out of range"}));
+}
