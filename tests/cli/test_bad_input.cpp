@@ -59,3 +59,14 @@ TEST_F(BadInput, InfoRejectsMalformedObjStatementsWithTheLine) {
   EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + write("wrap.obj", tri + "f 1 2 4294967299\n")),
                          {"wrap.obj: line 4", "\"4294967299\"", "out of range"}));
 }
+
+// nlohmann kept the last of two equal keys, and its number overflow came out raw ("[json.exception.out_of_range.406]").
+TEST_F(BadInput, SceneJsonDuplicateKeysAndOverflowNameFileAndPath) {
+  const auto dup = write("dup.json", R"({ "frames": 3, "cloths": [ { "mesh": { "vertices": 50, "vertices": 60 } } ] })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + dup + " -q --out " + out()),
+                         {"dup.json: cloths[0].mesh.vertices: duplicate key \"vertices\""}));
+  const auto big = write("big.json", R"({ "time_step": 1e400, "cloths": [ { "mesh": {} } ] })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + big + " -q --out " + out()),
+                         {"big.json: time_step: number overflow parsing '1e400'"}));
+  EXPECT_FALSE(fs::exists(out()));
+}

@@ -169,9 +169,78 @@ void JsonReader::finish() const {
   }
 }
 
+namespace {
+
+/// Follows nlohmann's parser through the document (its callback sees every key and value), so that what the parser
+/// itself accepts silently (a key given twice: the last one would win) or reports without a place (a number that
+/// overflows a double) is reported with its JSON path.
+class PathTracker {
+ public:
+  explicit PathTracker(const std::string& file) : m_file(file) {}
+
+  bool operator()(int /*depth*/, Json::parse_event_t event, Json& parsed) {
+    using E = Json::parse_event_t;
+    switch (event) {
+      case E::object_start: m_frames.push_back({true}); break;
+      case E::array_start: m_frames.push_back({false}); break;
+      case E::key: {
+        Frame& f = m_frames.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second)
+          throw InputError(fmt::format("{}: {}: duplicate key \"{}\": an object gives it twice (remove one; mgcloth "
+                                       "does not pick either)",
+                                       m_file, path(), f.key));
+        break;
+      }
+      case E::object_end:
+      case E::array_end:
+        m_frames.pop_back();
+        next_element();
+        break;
+      case E::value: next_element(); break;
+    }
+    return true;
+  }
+
+  /// The path of the element being parsed: "cloths[0].mesh.vertices"; "(top level)" outside every object.
+  std::string path() const {
+    std::string p;
+    for (const Frame& f : m_frames) {
+      if (!f.object) p += fmt::format("[{}]", f.index);
+      else if (!f.keys.empty()) p += (p.empty() ? "" : ".") + f.key;
+    }
+    return p.empty() ? "(top level)" : p;
+  }
+
+ private:
+  struct Frame {
+    bool object;
+    std::set<std::string> keys = {};
+    std::string key = {};
+    std::size_t index = 0;
+  };
+  void next_element() {
+    if (!m_frames.empty() && !m_frames.back().object) ++m_frames.back().index;
+  }
+
+  const std::string& m_file;
+  std::vector<Frame> m_frames;
+};
+
+}  // namespace
+
 Json parse_json(const std::string& text, const std::string& file) {
+  PathTracker tracker(file);
   try {
-    return Json::parse(text);
+    return Json::parse(text, [&tracker](int depth, Json::parse_event_t event, Json& parsed) {
+      return tracker(depth, event, parsed);
+    });
+  } catch (const Json::out_of_range& e) {
+    // "[json.exception.out_of_range.406] number overflow parsing '1e400'": a number beyond the range of a double.
+    const std::string what = e.what();
+    const auto pos = what.find("] ");
+    throw InputError(fmt::format("{}: {}: {} (beyond the range of a double)", file, tracker.path(),
+                                 pos == std::string::npos ? what : what.substr(pos + 2)));
   } catch (const Json::parse_error& e) {
     // nlohmann reports a byte offset; turn it into line:column for the user.
     size_t line = 1, col = 1;
