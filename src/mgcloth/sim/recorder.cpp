@@ -14,7 +14,9 @@ namespace mgcloth::sim {
 namespace fs = std::filesystem;
 
 namespace {
-constexpr char kMagic[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '1'};
+// Version 02 ends with an FNV-1a checksum of everything before it; 01 had none.
+constexpr char kMagic[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '2'};
+constexpr char kMagicUnchecked[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '1'};
 constexpr char kFramesMagic[8] = {'M', 'G', 'F', 'R', 'A', 'M', '0', '1'};
 constexpr std::size_t kFramesHeaderBytes = sizeof(kFramesMagic) + sizeof(std::uint64_t) + sizeof(std::int64_t);
 constexpr const char* kFramesFile = "frames.bin";
@@ -30,6 +32,14 @@ T get(std::istream& in, const fs::path& file) {
   in.read(reinterpret_cast<char*>(&v), sizeof(T));
   if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
   return v;
+}
+std::uint64_t fnv1a(std::string_view bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
 }
 /// Probes are numbered across shells in scene order: the first probe of shell `name`.
 size_t probe_offset(const Simulator& sim, const std::string& name) {
@@ -47,13 +57,7 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   j.erase("frames");
   j.erase("output");
   j.erase("threads");
-  const std::string s = j.dump();
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
+  return fnv1a(j.dump());
 }
 
 Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
@@ -245,23 +249,23 @@ void Recorder::finish(const Simulator& sim) {
 }
 
 void Recorder::write_checkpoint(const Simulator& sim) const {
-  write_file_atomic(
-      m_dir / "checkpoint.bin",
-      [&](std::ostream& o) {
-        o.write(kMagic, sizeof(kMagic));
-        put(o, m_fingerprint);
-        put<std::int64_t>(o, sim.frame());
-        put<std::int64_t>(o, sim.step_count());
-        put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size() + sim.shells().size()));
-        const auto put_state = [&](const VecX& x, const VecX& v) {
-          put<std::int64_t>(o, x.size());
-          o.write(reinterpret_cast<const char*>(x.data()), sizeof(double) * x.size());
-          o.write(reinterpret_cast<const char*>(v.data()), sizeof(double) * v.size());
-        };
-        for (const auto& c : sim.cloths()) put_state(c->x(), c->v());
-        for (const auto& sh : sim.shells()) put_state(sh->x(), sh->v());
-      },
-      true);
+  std::ostringstream o;
+  o.write(kMagic, sizeof(kMagic));
+  put(o, m_fingerprint);
+  put<std::int64_t>(o, sim.frame());
+  put<std::int64_t>(o, sim.step_count());
+  put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size() + sim.shells().size()));
+  const auto put_state = [&](const VecX& x, const VecX& v) {
+    put<std::int64_t>(o, x.size());
+    o.write(reinterpret_cast<const char*>(x.data()), sizeof(double) * x.size());
+    o.write(reinterpret_cast<const char*>(v.data()), sizeof(double) * v.size());
+  };
+  for (const auto& c : sim.cloths()) put_state(c->x(), c->v());
+  for (const auto& sh : sim.shells()) put_state(sh->x(), sh->v());
+  std::string bytes = std::move(o).str();
+  const std::uint64_t sum = fnv1a(bytes);
+  bytes.append(reinterpret_cast<const char*>(&sum), sizeof(sum));
+  write_file_atomic(m_dir / "checkpoint.bin", [&](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); }, true);
 }
 
 void Recorder::CsvLog::write(const fs::path& dir) const {
@@ -315,11 +319,22 @@ void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& 
 
 void Recorder::resume(Simulator& sim) {
   const fs::path file = m_dir / "checkpoint.bin";
-  std::ifstream in(file, std::ios::binary);
-  if (!in) throw InputError(fmt::format("{}: no checkpoint to resume from (was the run started with --out {}?)", file.string(), m_dir.string()));
-  char magic[8];
-  in.read(magic, 8);
-  if (!in || !std::equal(magic, magic + 8, kMagic)) throw InputError(fmt::format("{}: not an mgcloth checkpoint", file.string()));
+  if (!fs::exists(file))
+    throw InputError(fmt::format("{}: no checkpoint to resume from (was the run started with --out {}?)", file.string(), m_dir.string()));
+  const std::string bytes = read_file(file);
+  if (bytes.size() >= 8 && std::equal(bytes.begin(), bytes.begin() + 8, kMagicUnchecked))
+    throw InputError(fmt::format("{}: written by an older mgcloth, without a checksum; start a new run instead of "
+                                 "--resume", file.string()));
+  if (bytes.size() < 8 || !std::equal(bytes.begin(), bytes.begin() + 8, kMagic))
+    throw InputError(fmt::format("{}: not an mgcloth checkpoint", file.string()));
+  if (bytes.size() < 8 + sizeof(std::uint64_t)) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
+  const std::string_view payload(bytes.data(), bytes.size() - sizeof(std::uint64_t));
+  std::uint64_t sum = 0;
+  std::memcpy(&sum, bytes.data() + payload.size(), sizeof(sum));
+  if (sum != fnv1a(payload))
+    throw InputError(fmt::format("{}: checksum mismatch: the checkpoint is corrupted or truncated (nothing was "
+                                 "changed; start a new run or restore the file)", file.string()));
+  std::istringstream in(std::string(payload.substr(8)), std::ios::binary);
   if (get<std::uint64_t>(in, file) != m_fingerprint)
     throw InputError(fmt::format("{}: written by a different scene (physics, cloths or solver changed); start a new run instead of --resume", file.string()));
   const auto frame = get<std::int64_t>(in, file);

@@ -1,0 +1,71 @@
+// A damaged checkpoint is refused by --resume with the file named, and the run's outputs stay as they were.
+#include <mgcloth/core/file_io.hpp>
+
+#include "cli_run.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class Checkpoint : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fs::temp_directory_path() /
+          ("mgcloth_checkpoint_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::ofstream(dir / "scene.json") << R"({ "frames": 4, "cloths": [ { "mesh": { "generator": "rectangle",
+      "vertices": 120 }, "pins": [ { "points": [[0, 1], [1, 1]] } ] } ], "solver": { "name": "newton-direct" } })";
+    out = dir / "out";
+    const auto r = run("--frames 2");
+    ASSERT_EQ(r.code, 0) << r.out;
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  mgcloth::test::CliResult run(const std::string& extra) {
+    return mgcloth::test::run_cli("run " + (dir / "scene.json").string() + " -q --out " + out.string() + " " + extra);
+  }
+  /// Resuming the damaged checkpoint fails naming the file and `why`, and leaves every output as it was.
+  void expect_refused(const std::string& why) {
+    const std::string frame = mgcloth::read_file(out / "frame_00002.obj"), stats = mgcloth::read_file(out / "stats.csv");
+    const auto r = run("--resume");
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("checkpoint.bin"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(why), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(out / "frame_00003.obj"));
+    EXPECT_EQ(mgcloth::read_file(out / "frame_00002.obj"), frame);
+    EXPECT_EQ(mgcloth::read_file(out / "stats.csv"), stats);
+  }
+  fs::path dir, out;
+};
+
+TEST_F(Checkpoint, ResumesAnIntactOne) {
+  const auto r = run("--resume");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(out / "frame_00004.obj"));
+}
+
+TEST_F(Checkpoint, AFlippedByteIsAChecksumMismatch) {
+  std::string bytes = mgcloth::read_file(out / "checkpoint.bin");
+  bytes[bytes.size() / 2] ^= 0x10;  // inside the positions: a plausible number, which only the checksum catches
+  mgcloth::write_file_atomic(out / "checkpoint.bin", [&](std::ostream& o) { o << bytes; }, true);
+  expect_refused("checksum mismatch");
+}
+
+TEST_F(Checkpoint, ATruncatedOneIsRefused) {
+  std::string bytes = mgcloth::read_file(out / "checkpoint.bin");
+  bytes.resize(bytes.size() - 100);
+  mgcloth::write_file_atomic(out / "checkpoint.bin", [&](std::ostream& o) { o << bytes; }, true);
+  expect_refused("checksum mismatch");
+}
+
+TEST_F(Checkpoint, AnotherFileIsNotACheckpoint) {
+  mgcloth::write_file_atomic(out / "checkpoint.bin", [&](std::ostream& o) { o << "hello, this is not one"; }, true);
+  expect_refused("not an mgcloth checkpoint");
+}
+
+}  // namespace
