@@ -1,7 +1,10 @@
 #pragma once
 // Runs the mgcloth CLI built with the tests (MGCLOTH_CLI) and captures what it prints, for the CLI's tests.
+#include <gtest/gtest.h>
+
 #include <array>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <sys/wait.h>
 
@@ -23,5 +26,23 @@ inline CliResult run_cli(const std::string& args, const std::string& env = "") {
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+/// A fixture with a folder of its own, `dir`, under the system's temporary folder (named after `prefix` and the
+/// test), fresh for each test and removed afterwards.
+class TempDirTest : public ::testing::Test {
+ protected:
+  explicit TempDirTest(std::string prefix) : m_prefix(std::move(prefix)) {}
+  void SetUp() override {
+    dir = std::filesystem::temp_directory_path() /
+          (m_prefix + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir); }
+  std::filesystem::path dir;
+
+ private:
+  std::string m_prefix;
+};
 
 }  // namespace mgcloth::test

@@ -17,21 +17,14 @@ namespace {
 
 using mgcloth::test::CliResult;
 
-class BadInput : public ::testing::Test {
+class BadInput : public mgcloth::test::TempDirTest {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("mgcloth_bad_input_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
+  BadInput() : TempDirTest("mgcloth_bad_input_") {}
   std::string write(const std::string& name, const std::string& content) {
     std::ofstream(dir / name, std::ios::binary) << content;
     return (dir / name).string();
   }
   std::string out(const std::string& name = "out") const { return (dir / name).string(); }
-  fs::path dir;
 };
 
 /// An error is one line "mgcloth: error: …" containing every part, with exit code 1.

@@ -12,20 +12,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class Checkpoint : public ::testing::Test {
+class Checkpoint : public mgcloth::test::TempDirTest {
  protected:
+  Checkpoint() : TempDirTest("mgcloth_checkpoint_") {}
   void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("mgcloth_checkpoint_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
+    TempDirTest::SetUp();
     std::ofstream(dir / "scene.json") << R"({ "frames": 4, "cloths": [ { "mesh": { "generator": "rectangle",
       "vertices": 120 }, "pins": [ { "points": [[0, 1], [1, 1]] } ] } ], "solver": { "name": "newton-direct" } })";
     out = dir / "out";
     const auto r = run("--frames 2");
     ASSERT_EQ(r.code, 0) << r.out;
   }
-  void TearDown() override { fs::remove_all(dir); }
   mgcloth::test::CliResult run(const std::string& extra) {
     return mgcloth::test::run_cli("run " + (dir / "scene.json").string() + " -q --out " + out.string() + " " + extra);
   }
@@ -40,7 +37,7 @@ class Checkpoint : public ::testing::Test {
     EXPECT_EQ(mgcloth::read_file(out / "frame_00002.obj"), frame);
     EXPECT_EQ(mgcloth::read_file(out / "stats.csv"), stats);
   }
-  fs::path dir, out;
+  fs::path out;
 };
 
 TEST_F(Checkpoint, ResumesAnIntactOne) {

@@ -14,21 +14,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class HealthyRun : public ::testing::Test {
+class HealthyRun : public mgcloth::test::TempDirTest {
  protected:
-  void SetUp() override {
-    dir = fs::temp_directory_path() /
-          ("mgcloth_healthy_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  void TearDown() override { fs::remove_all(dir); }
+  HealthyRun() : TempDirTest("mgcloth_healthy_") {}
   /// Lines of stats.csv after the header.
   long steps(const fs::path& out) {
     const std::string stats = mgcloth::read_file(out / "stats.csv");
     return static_cast<long>(std::count(stats.begin(), stats.end(), '\n')) - 1;
   }
-  fs::path dir;
 };
 
 TEST_F(HealthyRun, TheHangingSceneRunsAllSixHundredFrames) {
