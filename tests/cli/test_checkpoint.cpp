@@ -60,6 +60,13 @@ TEST_F(Checkpoint, ATruncatedOneIsRefused) {
   expect_refused("checksum mismatch");
 }
 
+TEST_F(Checkpoint, AnotherFormatVersionIsNamed) {
+  std::string bytes = mgcloth::read_file(out / "checkpoint.bin");
+  bytes.replace(6, 2, "04");
+  mgcloth::write_file_atomic(out / "checkpoint.bin", [&](std::ostream& o) { o << bytes; }, true);
+  expect_refused("checkpoint format version 04, written by a newer mgcloth");
+}
+
 TEST_F(Checkpoint, AnotherFileIsNotACheckpoint) {
   mgcloth::write_file_atomic(out / "checkpoint.bin", [&](std::ostream& o) { o << "hello, this is not one"; }, true);
   expect_refused("not an mgcloth checkpoint");

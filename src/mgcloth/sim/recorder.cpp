@@ -1,6 +1,7 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/sim/checkpoint.hpp>
 #include <mgcloth/sim/gltf_export.hpp>
 #include <mgcloth/sim/recorder.hpp>
 
@@ -14,32 +15,15 @@ namespace mgcloth::sim {
 namespace fs = std::filesystem;
 
 namespace {
-// Version 02 ends with an FNV-1a checksum of everything before it; 01 had none.
-constexpr char kMagic[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '2'};
-constexpr char kMagicUnchecked[8] = {'M', 'G', 'C', 'K', 'P', 'T', '0', '1'};
 constexpr char kFramesMagic[8] = {'M', 'G', 'F', 'R', 'A', 'M', '0', '1'};
 constexpr std::size_t kFramesHeaderBytes = sizeof(kFramesMagic) + sizeof(std::uint64_t) + sizeof(std::int64_t);
 constexpr const char* kFramesFile = "frames.bin";
 constexpr const char* kGlbFile = "animation.glb";
+constexpr const char* kCheckpointFile = "checkpoint.bin";
 
 template <class T>
 void put(std::ostream& o, const T& v) {
   o.write(reinterpret_cast<const char*>(&v), sizeof(T));
-}
-template <class T>
-T get(std::istream& in, const fs::path& file) {
-  T v;
-  in.read(reinterpret_cast<char*>(&v), sizeof(T));
-  if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
-  return v;
-}
-std::uint64_t fnv1a(std::string_view bytes) {
-  std::uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : bytes) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
 }
 /// Probes are numbered across shells in scene order: the first probe of shell `name`.
 size_t probe_offset(const Simulator& sim, const std::string& name) {
@@ -249,23 +233,18 @@ void Recorder::finish(const Simulator& sim) {
 }
 
 void Recorder::write_checkpoint(const Simulator& sim) const {
-  std::ostringstream o;
-  o.write(kMagic, sizeof(kMagic));
-  put(o, m_fingerprint);
-  put<std::int64_t>(o, sim.frame());
-  put<std::int64_t>(o, sim.step_count());
-  put<std::int64_t>(o, static_cast<std::int64_t>(sim.cloths().size() + sim.shells().size()));
-  const auto put_state = [&](const VecX& x, const VecX& v) {
-    put<std::int64_t>(o, x.size());
-    o.write(reinterpret_cast<const char*>(x.data()), sizeof(double) * x.size());
-    o.write(reinterpret_cast<const char*>(v.data()), sizeof(double) * v.size());
-  };
-  for (const auto& c : sim.cloths()) put_state(c->x(), c->v());
-  for (const auto& sh : sim.shells()) put_state(sh->x(), sh->v());
-  std::string bytes = std::move(o).str();
-  const std::uint64_t sum = fnv1a(bytes);
-  bytes.append(reinterpret_cast<const char*>(&sum), sizeof(sum));
-  write_file_atomic(m_dir / "checkpoint.bin", [&](std::ostream& out) { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); }, true);
+  Checkpoint c;
+  c.fingerprint = m_fingerprint;
+  c.frame = sim.frame();
+  c.step = sim.step_count();
+  const size_t cloths = sim.cloths().size();
+  for (size_t k = 0; k < cloths + sim.shells().size(); ++k) {
+    const auto& x = k < cloths ? sim.cloths()[k]->x() : sim.shells()[k - cloths]->x();
+    const auto& v = k < cloths ? sim.cloths()[k]->v() : sim.shells()[k - cloths]->v();
+    c.bodies.push_back({x, v, sim.solver_state(k)});
+  }
+  const std::string bytes = encode_checkpoint(c);
+  write_file_atomic(m_dir / kCheckpointFile, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); }, true);
 }
 
 void Recorder::CsvLog::write(const fs::path& dir) const {
@@ -318,46 +297,28 @@ void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& 
 }
 
 void Recorder::resume(Simulator& sim) {
-  const fs::path file = m_dir / "checkpoint.bin";
+  const fs::path file = m_dir / kCheckpointFile;
   if (!fs::exists(file))
     throw InputError(fmt::format("{}: no checkpoint to resume from (was the run started with --out {}?)", file.string(), m_dir.string()));
-  const std::string bytes = read_file(file);
-  if (bytes.size() >= 8 && std::equal(bytes.begin(), bytes.begin() + 8, kMagicUnchecked))
-    throw InputError(fmt::format("{}: written by an older mgcloth, without a checksum; start a new run instead of "
-                                 "--resume", file.string()));
-  if (bytes.size() < 8 || !std::equal(bytes.begin(), bytes.begin() + 8, kMagic))
-    throw InputError(fmt::format("{}: not an mgcloth checkpoint", file.string()));
-  if (bytes.size() < 8 + sizeof(std::uint64_t)) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
-  const std::string_view payload(bytes.data(), bytes.size() - sizeof(std::uint64_t));
-  std::uint64_t sum = 0;
-  std::memcpy(&sum, bytes.data() + payload.size(), sizeof(sum));
-  if (sum != fnv1a(payload))
-    throw InputError(fmt::format("{}: checksum mismatch: the checkpoint is corrupted or truncated (nothing was "
-                                 "changed; start a new run or restore the file)", file.string()));
-  std::istringstream in(std::string(payload.substr(8)), std::ios::binary);
-  if (get<std::uint64_t>(in, file) != m_fingerprint)
+  const Checkpoint c = decode_checkpoint(read_file(file), file);
+  if (c.fingerprint != m_fingerprint)
     throw InputError(fmt::format("{}: written by a different scene (physics, cloths or solver changed); start a new run instead of --resume", file.string()));
-  const auto frame = get<std::int64_t>(in, file);
-  const auto step = get<std::int64_t>(in, file);
-  const auto count = get<std::int64_t>(in, file);
   const size_t bodies = sim.cloths().size() + sim.shells().size();
-  if (count != static_cast<std::int64_t>(bodies))
-    throw InputError(fmt::format("{}: has {} bodies, the scene has {}", file.string(), count, bodies));
+  if (c.bodies.size() != bodies)
+    throw InputError(fmt::format("{}: has {} bodies, the scene has {}", file.string(), c.bodies.size(), bodies));
   std::vector<VecX> xs, vs;
-  for (std::int64_t c = 0; c < count; ++c) {
-    const auto n = get<std::int64_t>(in, file);
-    const size_t k = static_cast<size_t>(c);
-    const Index expected = k < sim.cloths().size() ? static_cast<Index>(sim.cloths()[k]->x().size())
-                                                   : static_cast<Index>(sim.shells()[k - sim.cloths().size()]->x().size());
-    if (n != expected) throw InputError(fmt::format("{}: body {} size mismatch", file.string(), c));
-    VecX x(n), v(n);
-    in.read(reinterpret_cast<char*>(x.data()), sizeof(double) * n);
-    in.read(reinterpret_cast<char*>(v.data()), sizeof(double) * n);
-    if (!in) throw InputError(fmt::format("{}: truncated checkpoint", file.string()));
-    xs.push_back(std::move(x));
-    vs.push_back(std::move(v));
+  for (const auto& b : c.bodies) {
+    xs.push_back(b.x);
+    vs.push_back(b.v);
   }
-  sim.set_state(static_cast<int>(frame), step, xs, vs);
+  const int frame = static_cast<int>(c.frame);
+  const long step = static_cast<long>(c.step);
+  try {
+    sim.set_state(frame, step, xs, vs);
+    for (size_t k = 0; k < bodies; ++k) sim.set_solver_state(k, c.bodies[k].solver_state);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", file.string(), e.what()));
+  }
   if (m_write_glb) {
     // The checkpoint's frame is normally the last record kept; it is missing when frames.bin was, or when
     // output.every changed, and the animation needs its state as the base or the next frame.

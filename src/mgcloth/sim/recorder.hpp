@@ -8,7 +8,7 @@ namespace mgcloth::sim {
 /// Writes a run to its output folder: frame_NNNNN.obj (format "obj": all cloths, then the limit surface of every
 /// shell sampled for display; world positions with the material vt), animation.glb (format "glb", see finish()),
 /// probes.csv for shells with probes, stats.csv (one row per step and cloth), scene.resolved.json (every default
-/// filled in) and checkpoint.bin (x and v of every cloth after the last complete frame). Every file is written
+/// filled in) and checkpoint.bin (sim::Checkpoint after the last complete frame). Every file is written
 /// atomically, so an interrupted run leaves only complete files, and `resume()` continues it from its last
 /// checkpoint. The one exception is frames.bin, the glb format's record of the frames so far: it is only appended
 /// to (a long run must not rewrite every earlier frame each frame), and resume() cuts it back to the checkpoint.
@@ -21,8 +21,9 @@ class Recorder {
   const std::filesystem::path& dir() const { return m_dir; }
   /// Starts a fresh run: writes the resolved scene and frame 0.
   void start(const Simulator& sim);
-  /// Loads checkpoint.bin into the simulator and keeps the stats rows up to it. Throws InputError when the folder
-  /// has no checkpoint or one written for a different scene.
+  /// Loads checkpoint.bin into the simulator and keeps the stats rows up to it. Throws InputError, before
+  /// changing anything in the folder, when it has no checkpoint, a damaged one (decode_checkpoint) or one written
+  /// for a different scene.
   void resume(Simulator& sim);
   /// Records the stats of the steps of a frame, then the frame (when due) and the checkpoint.
   void record_frame(const Simulator& sim, const std::vector<StepStats>& stats);

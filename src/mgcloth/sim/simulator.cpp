@@ -256,25 +256,42 @@ void Simulator::set_obstacle_pose(size_t o, const geometry::Pose& pose) {
 
 void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v) {
   if (x.size() != m_cloths.size() + m_shells.size() || v.size() != x.size())
-    throw InputError(fmt::format("checkpoint has {} bodies, the scene has {} cloths and {} shells", x.size(),
+    throw InputError(fmt::format("the state has {} bodies, the scene has {} cloths and {} shells", x.size(),
                                  m_cloths.size(), m_shells.size()));
   for (size_t s = 0; s < m_shells.size(); ++s) {
     const size_t k = m_cloths.size() + s;
     if (x[k].size() != m_shells[s]->x().size() || v[k].size() != m_shells[s]->v().size())
-      throw InputError(fmt::format("checkpoint: shell \"{}\" has {} dofs, the scene's shell has {}", m_shells[s]->name(),
+      throw InputError(fmt::format("shell \"{}\" has {} dofs, the scene's shell has {}", m_shells[s]->name(),
                                    x[k].size(), m_shells[s]->x().size()));
     m_shells[s]->x() = x[k];
     m_shells[s]->v() = v[k];
   }
   for (size_t c = 0; c < m_cloths.size(); ++c) {
     if (x[c].size() != m_cloths[c]->x().size() || v[c].size() != m_cloths[c]->v().size())
-      throw InputError(fmt::format("checkpoint: cloth \"{}\" has {} dofs, the scene's mesh has {}", m_cloths[c]->name(),
+      throw InputError(fmt::format("cloth \"{}\" has {} dofs, the scene's mesh has {}", m_cloths[c]->name(),
                                    x[c].size(), m_cloths[c]->x().size()));
     m_cloths[c]->x() = x[c];
     m_cloths[c]->v() = v[c];
   }
   m_frame = frame;
   m_step = step;
+}
+
+std::string Simulator::solver_state(size_t /*body*/) const {
+  // No solver keeps state across steps that the checkpoint must carry yet.
+  return {};
+}
+
+void Simulator::set_solver_state(size_t body, std::string_view state) {
+  const size_t cloths = m_cloths.size();
+  if (body >= cloths + m_shells.size())
+    throw InputError(fmt::format("solver state for body {}, the scene has {} cloths and {} shells", body, cloths,
+                                 m_shells.size()));
+  if (!state.empty())
+    throw InputError(fmt::format("{} \"{}\": {} bytes of solver state, which solver \"{}\" does not keep",
+                                 body < cloths ? "cloth" : "shell",
+                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), state.size(),
+                                 (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->name()));
 }
 
 }  // namespace mgcloth::sim

@@ -5,6 +5,7 @@
 
 #include <map>
 #include <memory>
+#include <string_view>
 
 namespace mgcloth::sim {
 
@@ -90,8 +91,15 @@ class Simulator {
   /// Obstacle o moves to `pose` over the next frame (SteerableMotion) and stays there. Not kept in checkpoints.
   void set_obstacle_pose(size_t o, const geometry::Pose& pose);
 
-  /// State for checkpoints: frame, step, and x and v of every cloth, then of every shell.
+  /// State for checkpoints: frame, step, and x and v of every cloth, then of every shell. Throws InputError when
+  /// the counts or sizes do not fit the scene.
   void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
+  /// What the solver of `body` (every cloth, then every shell) carries from one step into the next, as opaque
+  /// bytes for checkpoints (sim::Checkpoint::Body::solver_state); empty when it carries nothing.
+  std::string solver_state(size_t body) const;
+  /// Gives a solver_state() back to the solver of `body` after set_state(), so that the next step goes on as the
+  /// uninterrupted run's. Throws InputError when the state does not fit that solver.
+  void set_solver_state(size_t body, std::string_view state);
 
  private:
   Scene m_scene;
