@@ -72,4 +72,34 @@ TEST_F(Checkpoint, AnotherFileIsNotACheckpoint) {
   expect_refused("not an mgcloth checkpoint");
 }
 
+/// The names in `dir` that look like write_file_atomic's temporaries.
+std::vector<std::string> temporaries(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().filename().string().find(".tmp") != std::string::npos) names.push_back(e.path().filename().string());
+  return names;
+}
+
+// A file-size limit makes the writes fail with EFBIG as a full disk does (root included); the ignored SIGXFSZ is
+// inherited, so mgcloth sees the failed write instead of being killed.
+TEST_F(Checkpoint, AFailedWriteLeavesNoTemporary) {
+  const auto r = mgcloth::test::run_cli("run " + (dir / "scene.json").string() + " -q --resume --out " + out.string(),
+                                        "trap '' XFSZ; ulimit -f 8;");
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("frame_00003.obj: cannot write: File too large"), std::string::npos) << r.out;
+  EXPECT_EQ(temporaries(out), std::vector<std::string>{});
+  // The checkpoint is still the last complete frame's, so the run goes on once there is room.
+  const auto resumed = run("--resume");
+  ASSERT_EQ(resumed.code, 0) << resumed.out;
+  EXPECT_TRUE(fs::exists(out / "frame_00004.obj"));
+}
+
+TEST_F(Checkpoint, ResumeRemovesStaleTemporaries) {
+  for (const char* name : {"checkpoint.bin.tmp4242", "stats.csv.tmp17", "frame_00001.obj.tmp99", "notes.txt.tmp5"})
+    std::ofstream(out / name) << "left by a killed run";
+  const auto r = run("--resume");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(temporaries(out), std::vector<std::string>{"notes.txt.tmp5"});  // not a name mgcloth writes
+}
+
 }  // namespace

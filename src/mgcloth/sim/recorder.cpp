@@ -25,6 +25,22 @@ template <class T>
 void put(std::ostream& o, const T& v) {
   o.write(reinterpret_cast<const char*>(&v), sizeof(T));
 }
+/// frame_NNNNN.obj
+bool is_frame_file(const std::string& name) {
+  return name.size() == 15 && name.rfind("frame_", 0) == 0 && name.compare(11, 4, ".obj") == 0;
+}
+/// Whether a run writes a file of this name into its folder (so that a temporary for it is one of ours).
+bool is_run_output(const std::string& name) {
+  for (const char* own : {kCheckpointFile, kFramesFile, kGlbFile, "stats.csv", "trace.csv", "probes.csv", "scene.resolved.json"})
+    if (name == own) return true;
+  return is_frame_file(name);
+}
+/// Temporaries of the atomic writes of a run that was killed, or that failed on a full disk before the temporaries
+/// were removed on failure, would otherwise stay in the folder for good.
+void remove_stale_temporaries(const fs::path& dir) {
+  for (const auto& file : remove_atomic_temporaries(dir, is_run_output))
+    logger().debug("removed {}, left by an earlier run", file.string());
+}
 /// Probes are numbered across shells in scene order: the first probe of shell `name`.
 size_t probe_offset(const Simulator& sim, const std::string& name) {
   size_t offset = 0;
@@ -100,10 +116,9 @@ void Recorder::start(const Simulator& sim) {
   m_trace.rows.clear();
   m_probes.rows.clear();
   // A fresh run in a folder with an older run must not leave stale frames behind that look like ours.
-  for (const auto& entry : fs::directory_iterator(m_dir)) {
-    const std::string name = entry.path().filename().string();
-    if (name.size() == 15 && name.rfind("frame_", 0) == 0 && entry.path().extension() == ".obj") fs::remove(entry.path());
-  }
+  for (const auto& entry : fs::directory_iterator(m_dir))
+    if (is_frame_file(entry.path().filename().string())) fs::remove(entry.path());
+  remove_stale_temporaries(m_dir);
   fs::remove(m_dir / kGlbFile);
   fs::remove(m_dir / kFramesFile);
   if (m_write_glb) reset_frames_file();
@@ -319,6 +334,7 @@ void Recorder::resume(Simulator& sim) {
   } catch (const InputError& e) {
     throw InputError(fmt::format("{}: {}", file.string(), e.what()));
   }
+  remove_stale_temporaries(m_dir);
   if (m_write_glb) {
     // The checkpoint's frame is normally the last record kept; it is missing when frames.bin was, or when
     // output.every changed, and the animation needs its state as the base or the next frame.
