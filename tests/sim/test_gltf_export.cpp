@@ -171,6 +171,11 @@ TEST(GltfFormat, AnimationMatchesObjFramesAndObstaclePoses) {
   EXPECT_EQ(pos.maxValues.size(), 3u);
   for (const auto& t : prim.targets) EXPECT_EQ(m.accessors.at(t.at("POSITION")).minValues.size(), 3u);
   EXPECT_EQ(m.accessors.at(prim.indices).count, 3 * static_cast<size_t>(reference.cloths()[0]->mesh().num_triangles()));
+  // The size the run is checked against before it starts is the size written.
+  EXPECT_EQ(m.buffers.at(0).data.size(),
+            sim::glb_binary_bytes(static_cast<std::uint64_t>(reference.cloths()[0]->mesh().num_vertices()),
+                                  static_cast<std::uint64_t>(reference.cloths()[0]->mesh().num_triangles()), true,
+                                  kFrames + 1, reference.obstacles()));
   const auto frames = cloth_frames(m);
   for (int k = 0; k <= kFrames; ++k) {
     const auto obj = obj_positions(sim::Recorder::frame_path(dir, k));
@@ -260,6 +265,42 @@ TEST(GltfFormat, ResumeKeepsEveryFrameOnce) {
   ASSERT_EQ(late_times.size(), 3u);
   EXPECT_NEAR(late_times[0], 2 * full.frame_time, 1e-6);
   fs::remove_all(root);
+}
+
+// The file is streamed (its buffer written a frame at a time, from frames.bin) but is byte for byte what tinygltf
+// writes for the model it holds, as the whole model built in memory was written before.
+TEST(GltfFormat, StreamedFileIsWhatTinygltfWritesForItsModel) {
+  const fs::path dir = fs::temp_directory_path() / "mgcloth_gltf_stream_test";
+  fs::remove_all(dir);
+  run(parse(drape_json(5, "glb")), dir, false);
+  const std::string bytes = read_file(dir / "animation.glb");
+  tinygltf::Model model = load_glb(dir / "animation.glb");
+  EXPECT_EQ(model.meshes.at(0).primitives.at(0).targets.size(), 5u);
+  std::ostringstream rewritten;
+  tinygltf::TinyGLTF writer;
+  ASSERT_TRUE(writer.WriteGltfSceneToStream(&model, rewritten, false, true));
+  EXPECT_TRUE(rewritten.str() == bytes) << rewritten.str().size() << " bytes vs " << bytes.size();
+  fs::remove_all(dir);
+}
+
+// Frames that the reader cannot deliver are an error naming the file, and nothing is left in its place.
+TEST(GltfFormat, AFailedFrameReadLeavesNoFile) {
+  sim::SurfaceAnimation s;
+  s.num_vertices = 3;
+  s.tris = {{0, 1, 2}};
+  s.times = {0.0, 0.5, 1.0};
+  const fs::path dir = fs::temp_directory_path() / "mgcloth_gltf_read_fails";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  int reads = 0;
+  const auto read = [&](size_t k, float* out) {
+    if (++reads > 4) throw Error(fmt::format("{}: cannot read frame record {}", (dir / "frames.bin").string(), k));
+    for (int i = 0; i < 9; ++i) out[i] = static_cast<float>(i + k);
+  };
+  EXPECT_THROW(sim::write_glb(dir / "animation.glb", s, read, {}), Error);
+  EXPECT_EQ(reads, 5);  // three for the bounds, then the first target's frame again, then the failure
+  EXPECT_TRUE(fs::is_empty(dir));
+  fs::remove_all(dir);
 }
 
 // Every shape kind tessellated at its size in the obstacle's frame; the plane covers the animated surface.

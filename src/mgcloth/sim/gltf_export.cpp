@@ -4,6 +4,7 @@
 
 #ifdef MGCLOTH_HAVE_GLTF
 // Debian's libtinygltf-dev ships the implementation compiled (libtinygltf.so), so no TINYGLTF_IMPLEMENTATION here.
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 #endif
 
@@ -13,13 +14,11 @@
 #include <cstring>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 namespace mgcloth::sim {
 
 namespace fs = std::filesystem;
-
-#ifdef MGCLOTH_HAVE_GLTF
-bool glb_available() { return true; }
 
 namespace {
 
@@ -102,7 +101,45 @@ ShapeMesh plane_shape(double half) {
   return m;
 }
 
-/// Builds the model: one buffer that every buffer view slices, appended to in order.
+/// An obstacle's shape tessellated as write_glb draws it; a plane is sized to cover the sphere around the animated
+/// surface (`centre`, in the obstacle's frame, and `radius`).
+ShapeMesh obstacle_shape(const fs::path& path, const geometry::Obstacle& ob, const Vec3& centre, double radius) {
+  const auto params = ob.shape->params();
+  switch (ob.shape->kind()) {
+    // Large enough to lie under the whole animation, seen from any viewpoint that frames the cloth.
+    case 0: return plane_shape(std::max(1.0, 2.0 * (centre.head<2>().norm() + radius)));
+    case 1: return round_shape(params[0], 0.0);
+    case 2: return box_shape(Vec3(params[0], params[1], params[2]));
+    case 3: return round_shape(params[0], params[1]);
+    default: throw_error("{}: obstacle \"{}\": cannot tessellate shape \"{}\"", path.string(), ob.name, ob.shape->type());
+  }
+}
+
+}  // namespace
+
+std::uint64_t glb_binary_bytes(std::uint64_t vertices, std::uint64_t triangles, bool uv, std::uint64_t frames,
+                               const std::vector<geometry::Obstacle>& obstacles) {
+  const std::uint64_t f = 4, targets = frames > 0 ? frames - 1 : 0;
+  // Times, base positions, texture coordinates, and three uint32 indices per triangle.
+  std::uint64_t bytes = f * frames + 3 * f * vertices + (uv ? 2 * f * vertices : 0) + 3 * f * triangles;
+  bytes += 3 * f * vertices * targets;  // morph targets
+  bytes += f * frames * targets;        // their weights, frames × targets
+  for (const auto& ob : obstacles) {
+    const ShapeMesh shape = obstacle_shape("", ob, Vec3::Zero(), 0.0);
+    bytes += f * (shape.positions.size() + shape.normals.size() + shape.indices.size());
+    if (ob.motion) bytes += 7 * f * frames;  // translation and rotation channels
+  }
+  return bytes;
+}
+
+#ifdef MGCLOTH_HAVE_GLTF
+bool glb_available() { return true; }
+
+namespace {
+
+/// Builds the model: one buffer that every buffer view slices, appended to in order. The large views (the morph
+/// targets and their weights, which grow with the frame count) are streamed: only their size is known here, and
+/// their bytes are produced when the file is written.
 class ModelBuilder {
  public:
   tinygltf::Model model;
@@ -112,44 +149,58 @@ class ModelBuilder {
     model.asset.generator = "mgcloth";
     model.buffers.emplace_back();
   }
-  std::vector<unsigned char>& bytes() { return model.buffers[0].data; }
+  std::uint64_t buffer_bytes() const { return m_size; }
 
-  /// A buffer view over `size` bytes copied to the end of the buffer; target 0 for animation data.
+  /// A buffer view over a copy of `size` bytes at the end of the buffer; target 0 for animation data.
   int view(const void* data, size_t size, int target) {
-    auto& b = bytes();
-    const size_t offset = b.size();  // every element is 4 bytes, so offsets stay 4-aligned
-    b.resize(offset + size);
-    std::memcpy(b.data() + offset, data, size);
-    tinygltf::BufferView v;
-    v.buffer = 0;
-    v.byteOffset = offset;
-    v.byteLength = size;
-    v.target = target;
-    model.bufferViews.push_back(v);
-    return static_cast<int>(model.bufferViews.size() - 1);
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    m_chunks.push_back({std::vector<unsigned char>(bytes, bytes + size), nullptr});
+    return add_view(size, target);
+  }
+  /// A buffer view over `size` bytes at the end of the buffer that `write` puts out when the file is written.
+  int streamed_view(size_t size, int target, std::function<void(std::ostream&)> write) {
+    m_chunks.push_back({{}, std::move(write)});
+    return add_view(size, target);
+  }
+  /// Writes the buffer's bytes: every view's in order.
+  void write_buffer(std::ostream& o) const {
+    for (const auto& c : m_chunks) {
+      if (c.write) c.write(o);
+      else o.write(reinterpret_cast<const char*>(c.bytes.data()), static_cast<std::streamsize>(c.bytes.size()));
+    }
   }
 
-  /// Float accessor of `width` components per element (1 scalar, 3 vec3, 4 vec4) with its per-component min/max
-  /// (required by glTF for POSITION attributes and animation inputs; written for every float accessor).
-  int floats(const std::vector<float>& data, int width, int target) {
+  /// Float accessor of `count` elements of `width` components (1 scalar, 2 vec2, 3 vec3, 4 vec4) over a view, with
+  /// its per-component min/max (required by glTF for POSITION attributes and animation inputs; written for every
+  /// float accessor).
+  int float_accessor(int view, size_t count, int width, std::vector<double> min, std::vector<double> max) {
     tinygltf::Accessor a;
-    a.bufferView = view(data.data(), data.size() * sizeof(float), target);
+    a.bufferView = view;
     a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    a.count = data.size() / static_cast<size_t>(width);
+    a.count = count;
     a.type = width == 1 ? TINYGLTF_TYPE_SCALAR : width == 2 ? TINYGLTF_TYPE_VEC2 : width == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
-    a.minValues.assign(width, std::numeric_limits<double>::infinity());
-    a.maxValues.assign(width, -std::numeric_limits<double>::infinity());
-    for (size_t i = 0; i < data.size(); ++i) {
-      const size_t c = i % static_cast<size_t>(width);
-      a.minValues[c] = std::min(a.minValues[c], static_cast<double>(data[i]));
-      a.maxValues[c] = std::max(a.maxValues[c], static_cast<double>(data[i]));
-    }
-    if (data.empty()) {
-      a.minValues.assign(width, 0.0);
-      a.maxValues.assign(width, 0.0);
-    }
+    a.minValues = std::move(min);
+    a.maxValues = std::move(max);
     model.accessors.push_back(a);
     return static_cast<int>(model.accessors.size() - 1);
+  }
+
+  int floats(const std::vector<float>& data, int width, int target) {
+    auto [min, max] = bounds(data.data(), data.size(), width);
+    return float_accessor(view(data.data(), data.size() * sizeof(float), target), data.size() / static_cast<size_t>(width),
+                          width, std::move(min), std::move(max));
+  }
+
+  /// Per-component min and max of `size` floats, `width` per element (zeros when there are none).
+  static std::pair<std::vector<double>, std::vector<double>> bounds(const float* data, size_t size, int width) {
+    if (size == 0) return {std::vector<double>(width, 0.0), std::vector<double>(width, 0.0)};
+    std::vector<double> min(width, std::numeric_limits<double>::infinity()), max(width, -std::numeric_limits<double>::infinity());
+    for (size_t i = 0; i < size; ++i) {
+      const size_t c = i % static_cast<size_t>(width);
+      min[c] = std::min(min[c], static_cast<double>(data[i]));
+      max[c] = std::max(max[c], static_cast<double>(data[i]));
+    }
+    return {min, max};
   }
 
   int indices(const std::vector<std::uint32_t>& data) {
@@ -190,13 +241,30 @@ class ModelBuilder {
     c.target_path = path;
     anim.channels.push_back(c);
   }
+
+ private:
+  int add_view(size_t size, int target) {
+    tinygltf::BufferView v;
+    v.buffer = 0;
+    v.byteOffset = m_size;  // every element is 4 bytes, so offsets stay 4-aligned
+    v.byteLength = size;
+    v.target = target;
+    model.bufferViews.push_back(v);
+    m_size += size;
+    return static_cast<int>(model.bufferViews.size() - 1);
+  }
+
+  struct Chunk {
+    std::vector<unsigned char> bytes;
+    std::function<void(std::ostream&)> write;  ///< set for a streamed view
+  };
+  std::vector<Chunk> m_chunks;
+  std::uint64_t m_size = 0;
 };
 
 void check(const fs::path& path, const SurfaceAnimation& s) {
   const size_t n = static_cast<size_t>(s.num_vertices), frames = s.times.size();
   if (frames == 0 || n == 0) throw_error("{}: nothing to export ({} frames of {} vertices)", path.string(), frames, n);
-  if (s.positions.size() != 3 * n * frames)
-    throw_error("{}: {} position values for {} frames of {} vertices", path.string(), s.positions.size(), frames, n);
   if (!s.frame_numbers.empty() && s.frame_numbers.size() != frames)
     throw_error("{}: {} frame numbers for {} frames", path.string(), s.frame_numbers.size(), frames);
   if (s.uv.cols() != 0 && s.uv.cols() != s.num_vertices)
@@ -210,27 +278,72 @@ void check(const fs::path& path, const SurfaceAnimation& s) {
       throw_error("{}: frame times {} and {} do not increase at float precision", path.string(), s.times[k - 1], s.times[k]);
 }
 
-/// Centre and half diagonal of the box around every position of every frame (sizes the planes).
-std::pair<Vec3, double> bounding_sphere(const std::vector<float>& positions) {
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (size_t i = 0; i + 2 < positions.size(); i += 3) {
-    const Vec3 p(positions[i], positions[i + 1], positions[i + 2]);
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  return {0.5 * (lo + hi), 0.5 * (hi - lo).norm()};
-}
-
 std::vector<float> quaternion(const Eigen::Quaterniond& q) {
   const Eigen::Quaterniond u = q.normalized();
   return {static_cast<float>(u.x()), static_cast<float>(u.y()), static_cast<float>(u.z()), static_cast<float>(u.w())};
 }
 
+void put_u32(std::ostream& o, std::uint32_t v) {
+  const unsigned char b[4] = {static_cast<unsigned char>(v), static_cast<unsigned char>(v >> 8),
+                              static_cast<unsigned char>(v >> 16), static_cast<unsigned char>(v >> 24)};
+  o.write(reinterpret_cast<const char*>(b), 4);
+}
+
+/// The model's JSON as tinygltf writes it into a .glb, with the buffer's length, which the model does not hold.
+std::string gltf_json(const tinygltf::Model& model, std::uint64_t buffer_bytes, const fs::path& path) {
+  std::ostringstream glb;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&model, glb, /*prettyPrint=*/false, /*writeBinary=*/true))
+    throw_error("{}: tinygltf could not serialize the model", path.string());
+  // The .glb of a model without buffer data is a 12-byte header and the JSON chunk (8 bytes, then the JSON
+  // padded with spaces, which the parser skips).
+  const std::string bytes = std::move(glb).str();
+  if (bytes.size() < 20) throw_error("{}: tinygltf wrote no JSON chunk", path.string());
+  nlohmann::json j = nlohmann::json::parse(bytes.begin() + 20, bytes.end());
+  j["buffers"][0]["byteLength"] = buffer_bytes;
+  return j.dump();
+}
+
 }  // namespace
 
 void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std::vector<geometry::Obstacle>& obstacles) {
+  const size_t values = 3 * static_cast<size_t>(surface.num_vertices);
+  if (surface.positions.size() != values * surface.times.size())
+    throw_error("{}: {} position values for {} frames of {} vertices", path.string(), surface.positions.size(),
+                surface.times.size(), surface.num_vertices);
+  write_glb(
+      path, surface,
+      [&](size_t k, float* out) { std::memcpy(out, surface.positions.data() + values * k, values * sizeof(float)); },
+      obstacles);
+}
+
+void write_glb(const fs::path& path, const SurfaceAnimation& surface, const FrameReader& read,
+               const std::vector<geometry::Obstacle>& obstacles) {
   check(path, surface);
   const size_t n = static_cast<size_t>(surface.num_vertices), frames = surface.times.size();
+  // One pass over the frames for what the JSON needs before the data: the bounds of every morph target, and the
+  // box around every position of every frame (sizes the planes). The base stays in memory for the deltas.
+  std::vector<float> base(3 * n), x(3 * n), delta(3 * n);
+  read(0, base.data());
+  std::vector<std::pair<std::vector<double>, std::vector<double>>> target_bounds;
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (size_t k = 0; k < frames; ++k) {
+    const float* p = base.data();
+    if (k > 0) {
+      read(k, x.data());
+      for (size_t i = 0; i < 3 * n; ++i) delta[i] = x[i] - base[i];
+      target_bounds.push_back(ModelBuilder::bounds(delta.data(), delta.size(), 3));
+      p = x.data();
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const Vec3 v(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+  }
+  const Vec3 centre = 0.5 * (lo + hi);
+  const double radius = 0.5 * (hi - lo).norm();
+
   ModelBuilder b;
   tinygltf::Animation anim;
   anim.name = "simulation";
@@ -249,7 +362,6 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
   {
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
-    const std::vector<float> base(surface.positions.begin(), surface.positions.begin() + 3 * n);
     prim.attributes["POSITION"] = b.floats(base, 3, TINYGLTF_TARGET_ARRAY_BUFFER);
     if (surface.uv.cols() == surface.num_vertices) {
       std::vector<float> uv(2 * n);
@@ -270,15 +382,21 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
     tinygltf::Mesh mesh;
     mesh.name = "cloth";
     tinygltf::Value::Array names;
-    std::vector<float> delta(3 * n);
+    const size_t target_bytes = 3 * n * sizeof(float);
     for (size_t k = 1; k < frames; ++k) {
-      const float* x = surface.positions.data() + 3 * n * k;
-      for (size_t i = 0; i < 3 * n; ++i) delta[i] = x[i] - base[i];
-      prim.targets.push_back({{"POSITION", b.floats(delta, 3, TINYGLTF_TARGET_ARRAY_BUFFER)}});
+      // Runs when the file is written, after this block: what it refers to lives as long as write_glb.
+      const auto write = [&read, &base, &x, &delta, k](std::ostream& o) {
+        read(k, x.data());
+        for (size_t i = 0; i < x.size(); ++i) delta[i] = x[i] - base[i];
+        o.write(reinterpret_cast<const char*>(delta.data()), static_cast<std::streamsize>(delta.size() * sizeof(float)));
+      };
+      const int view = b.streamed_view(target_bytes, TINYGLTF_TARGET_ARRAY_BUFFER, write);
+      auto& [min, max] = target_bounds[k - 1];
+      prim.targets.push_back({{"POSITION", b.float_accessor(view, n, 3, std::move(min), std::move(max))}});
       names.emplace_back(fmt::format("frame_{:05d}", surface.frame_numbers.empty() ? static_cast<int>(k) : surface.frame_numbers[k]));
     }
     mesh.primitives.push_back(std::move(prim));
-    std::vector<float> weights;
+    int weights = -1;
     if (frames > 1) {
       mesh.weights.assign(frames - 1, 0.0);
       // Blender names the shape keys, three.js the morphTargetDictionary entries, from extras.targetNames.
@@ -286,9 +404,18 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
       extras["targetNames"] = tinygltf::Value(std::move(names));
       mesh.extras = tinygltf::Value(std::move(extras));
       // Frame k (k ≥ 1) shows target k − 1 alone; the output is frames × targets weights, so it grows
-      // quadratically with the frame count (output.every keeps long runs small).
-      weights.assign(frames * (frames - 1), 0.0f);
-      for (size_t k = 1; k < frames; ++k) weights[k * (frames - 1) + (k - 1)] = 1.0f;
+      // quadratically with the frame count (output.every keeps long runs small). Written a frame at a time.
+      const size_t targets = frames - 1;
+      const int view = b.streamed_view(frames * targets * sizeof(float), 0, [frames, targets](std::ostream& o) {
+        std::vector<float> row(targets, 0.0f);
+        for (size_t k = 0; k < frames; ++k) {
+          if (k > 0) row[k - 1] = 1.0f;
+          o.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(targets * sizeof(float)));
+          if (k > 0) row[k - 1] = 0.0f;
+        }
+      });
+      // Frame 0's row is all zeros and frame 1's holds a one.
+      weights = b.float_accessor(view, frames * targets, 1, {0.0}, {1.0});
     }
     tinygltf::Node node;
     node.name = "cloth";
@@ -296,29 +423,15 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
     b.model.meshes.push_back(std::move(mesh));
     const int cloth_node = b.node(node);
     root.children.push_back(cloth_node);
-    if (frames > 1) b.channel(anim, cloth_node, "weights", time_accessor, b.floats(weights, 1, 0));
+    if (frames > 1) b.channel(anim, cloth_node, "weights", time_accessor, weights);
   }
 
   // Obstacles: a node per obstacle, posed at the first frame, with its poses at every frame as STEP channels when
   // it moves.
-  const auto [centre, radius] = bounding_sphere(surface.positions);
   const int obstacle_material = obstacles.empty() ? -1 : b.material("obstacle", {0.6, 0.6, 0.65}, /*double_sided=*/false);
   for (const auto& ob : obstacles) {
     const geometry::Pose first = ob.motion ? ob.motion->pose(surface.times.front()) : geometry::Pose{};
-    ShapeMesh shape;
-    const auto params = ob.shape->params();
-    switch (ob.shape->kind()) {
-      case 0: {
-        // Large enough to lie under the whole animation, seen from any viewpoint that frames the cloth.
-        const Vec3 c = first.to_local(centre);
-        shape = plane_shape(std::max(1.0, 2.0 * (c.head<2>().norm() + radius)));
-        break;
-      }
-      case 1: shape = round_shape(params[0], 0.0); break;
-      case 2: shape = box_shape(Vec3(params[0], params[1], params[2])); break;
-      case 3: shape = round_shape(params[0], params[1]); break;
-      default: throw_error("{}: obstacle \"{}\": cannot tessellate shape \"{}\"", path.string(), ob.name, ob.shape->type());
-    }
+    const ShapeMesh shape = obstacle_shape(path, ob, first.to_local(centre), radius);
     tinygltf::Primitive prim;
     prim.mode = TINYGLTF_MODE_TRIANGLES;
     prim.attributes["POSITION"] = b.floats(shape.positions, 3, TINYGLTF_TARGET_ARRAY_BUFFER);
@@ -364,20 +477,33 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
   b.model.scenes.push_back(scene);
   b.model.defaultScene = 0;
   if (!anim.channels.empty()) b.model.animations.push_back(std::move(anim));
-
-  // A .glb addresses its chunks with 32-bit lengths.
-  const size_t bytes = b.bytes().size();
-  if (bytes > std::numeric_limits<std::uint32_t>::max() - (64u << 20))
-    throw_error("{}: the animation needs {:.1f} GiB of binary data, more than a .glb can hold (4 GiB); "
-                "write fewer frames with output.every",
-                path.string(), static_cast<double>(bytes) / (1u << 30));
   b.model.buffers[0].name = "data";
+
+  // A .glb: a 12-byte header and two chunks (8 bytes each, then their data padded to 4 bytes), the JSON and the
+  // buffer, all addressed with 32-bit lengths.
+  const std::string json = gltf_json(b.model, b.buffer_bytes(), path);
+  const std::uint64_t json_chunk = (json.size() + 3) / 4 * 4, bin_chunk = (b.buffer_bytes() + 3) / 4 * 4;
+  const std::uint64_t total = 12 + 8 + json_chunk + (bin_chunk > 0 ? 8 + bin_chunk : 0);
+  if (total > std::numeric_limits<std::uint32_t>::max())
+    throw_error("{}: the animation needs {:.1f} GiB, more than a .glb can hold (4 GiB); write fewer frames with "
+                "output.every",
+                path.string(), static_cast<double>(total) / (1u << 30));
   write_file_atomic(
       path,
       [&](std::ostream& o) {
-        tinygltf::TinyGLTF writer;
-        if (!writer.WriteGltfSceneToStream(&b.model, o, /*prettyPrint=*/false, /*writeBinary=*/true))
-          throw_error("{}: tinygltf could not serialize the model", path.string());
+        o.write("glTF", 4);
+        put_u32(o, 2);
+        put_u32(o, static_cast<std::uint32_t>(total));
+        put_u32(o, static_cast<std::uint32_t>(json_chunk));
+        put_u32(o, 0x4E4F534A);  // "JSON"
+        o << json << std::string(json_chunk - json.size(), ' ');
+        if (bin_chunk == 0) return;
+        put_u32(o, static_cast<std::uint32_t>(bin_chunk));
+        put_u32(o, 0x004E4942);  // "BIN"
+        b.write_buffer(o);
+        o << std::string(bin_chunk - b.buffer_bytes(), '\0');
+        if (o && o.tellp() != static_cast<std::streamoff>(total))
+          throw_error("{}: wrote {} bytes instead of {}", path.string(), static_cast<std::int64_t>(o.tellp()), total);
       },
       /*binary=*/true);
 }
@@ -386,6 +512,12 @@ void write_glb(const fs::path& path, const SurfaceAnimation& surface, const std:
 bool glb_available() { return false; }
 
 void write_glb(const fs::path& path, const SurfaceAnimation&, const std::vector<geometry::Obstacle>&) {
+  throw_error("{}: this build of mgcloth has no glTF export (configured without libtinygltf-dev; install it and "
+              "re-run cmake)",
+              path.string());
+}
+
+void write_glb(const fs::path& path, const SurfaceAnimation&, const FrameReader&, const std::vector<geometry::Obstacle>&) {
   throw_error("{}: this build of mgcloth has no glTF export (configured without libtinygltf-dev; install it and "
               "re-run cmake)",
               path.string());

@@ -2,7 +2,9 @@
 #include <mgcloth/core/types.hpp>
 #include <mgcloth/geometry/obstacle.hpp>
 
+#include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 namespace mgcloth::sim {
@@ -15,9 +17,25 @@ struct SurfaceAnimation {
   Index num_vertices = 0;
   std::vector<double> times;     ///< simulated time of each frame, s, strictly increasing
   std::vector<int> frame_numbers;  ///< the simulation frame of each frame (names the morph targets); empty: 0, 1, …
-  std::vector<float> positions;  ///< frame-major: vertex i of frame k at [3 (k·num_vertices + i)], world, m
+  /// Frame-major: vertex i of frame k at [3 (k·num_vertices + i)], world, m. Unused (may be empty) when
+  /// write_glb reads the frames through a FrameReader.
+  std::vector<float> positions;
   Index num_frames() const { return static_cast<Index>(times.size()); }
 };
+
+/// Puts the 3 num_vertices positions of frame k into `out`; write_glb reads each frame twice, in order.
+using FrameReader = std::function<void(size_t k, float* out)>;
+
+/// The binary data a .glb holds at most: its chunks have 32-bit lengths, and 64 MiB are left for its JSON (about
+/// 200 bytes per frame).
+inline constexpr std::uint64_t kGlbMaxBinaryBytes = 0xFFFFFFFFull - (64ull << 20);
+
+/// The bytes of binary data that write_glb writes for `frames` frames of a surface of `vertices` vertices and
+/// `triangles` triangles (with texture coordinates when `uv`) and `obstacles`, counting the channels of every
+/// obstacle with a motion (so at most that when one does not move): 12 bytes per vertex and frame for the morph
+/// targets, 4 · frames · (frames − 1) for their weights, and the rest, which does not grow with the frames.
+std::uint64_t glb_binary_bytes(std::uint64_t vertices, std::uint64_t triangles, bool uv, std::uint64_t frames,
+                               const std::vector<geometry::Obstacle>& obstacles);
 
 /// Writes one binary glTF 2.0 file (atomically) holding the whole animation:
 /// - the surface as one mesh whose base positions are frame 0 and whose morph target k−1 holds the POSITION
@@ -29,6 +47,10 @@ struct SurfaceAnimation {
 /// data and channels are in simulation coordinates. Throws Error when the animation is empty or inconsistent, or
 /// when the file would exceed the 4 GiB a .glb can address.
 void write_glb(const std::filesystem::path& path, const SurfaceAnimation& surface,
+               const std::vector<geometry::Obstacle>& obstacles);
+/// The same file from frames read one at a time through `read` (surface.positions unused), so that memory holds a
+/// few frames, not the animation: the morph targets and their weights are written to the file as they are made.
+void write_glb(const std::filesystem::path& path, const SurfaceAnimation& surface, const FrameReader& read,
                const std::vector<geometry::Obstacle>& obstacles);
 
 /// Whether this build can write glb (it was configured with tinygltf); without it write_glb throws Error.

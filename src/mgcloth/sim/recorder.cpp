@@ -94,6 +94,32 @@ Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
   m_combined.u.resize(2, offset);
   for (Index i = 0; i < offset; ++i) m_combined.u.col(i) = u[i];
   m_combined.x = Mat3X::Zero(3, offset);
+  if (m_write_glb) check_glb_size(sim);
+}
+
+void Recorder::check_glb_size(const Simulator& sim) const {
+  const Scene& scene = sim.scene();
+  const std::uint64_t n = static_cast<std::uint64_t>(m_combined.u.cols()), tris = m_combined.tris.size();
+  const auto bytes = [&](std::uint64_t frames) { return glb_binary_bytes(n, tris, true, frames, sim.obstacles()); };
+  const std::uint64_t frames = static_cast<std::uint64_t>(scene.frames / scene.output.every) + 1;
+  if (bytes(frames) <= kGlbMaxBinaryBytes) return;
+  std::uint64_t fit = 0, too_many = frames;
+  while (too_many - fit > 1) {
+    const std::uint64_t mid = fit + (too_many - fit) / 2;
+    (bytes(mid) <= kGlbMaxBinaryBytes ? fit : too_many) = mid;
+  }
+  const std::string advice =
+      fit >= 2 ? fmt::format("at most {} frames fit: set output.every to {} or more, or write fewer frames", fit,
+                             (static_cast<std::uint64_t>(scene.frames) + fit - 2) / (fit - 1))
+               : std::string("the surface is too large for a .glb at all; write the obj format instead");
+  constexpr double kGiB = 1u << 30;
+  throw InputError(fmt::format(
+      "{}: output.format \"glb\": {} frames of {} vertices (frames {} / output.every {}, plus frame 0) need {:.2f} GiB "
+      "of data in animation.glb ({:.2f} GiB of morph targets, 12 bytes per vertex and frame, and {:.2f} GiB of "
+      "their weights, 4 bytes per frame squared), more than the {:.2f} GiB a .glb can hold (4 GiB with its JSON); {}",
+      scene.file, frames, n, scene.frames, scene.output.every, static_cast<double>(bytes(frames)) / kGiB,
+      static_cast<double>(12 * n * (frames - 1)) / kGiB, static_cast<double>(4 * frames * (frames - 1)) / kGiB,
+      static_cast<double>(kGlbMaxBinaryBytes) / kGiB, advice));
 }
 
 std::string Recorder::stats_header() {
@@ -220,31 +246,38 @@ long Recorder::truncate_frames_file(int frame) const {
 void Recorder::finish(const Simulator& sim) {
   if (!m_write_glb) return;
   const fs::path file = m_dir / kFramesFile;
-  const std::string data = read_file(file);
-  const std::size_t record = frame_record_bytes();
+  std::ifstream in(file, std::ios::binary);
+  char magic[8] = {};
   std::int64_t vertices = -1;
-  if (data.size() >= kFramesHeaderBytes) std::memcpy(&vertices, data.data() + kFramesHeaderBytes - sizeof(vertices), sizeof(vertices));
-  if (data.size() < kFramesHeaderBytes || !std::equal(kFramesMagic, kFramesMagic + 8, data.data()) ||
-      vertices != m_combined.u.cols())
+  in.seekg(sizeof(magic) + sizeof(std::uint64_t));
+  in.read(reinterpret_cast<char*>(&vertices), sizeof(vertices));
+  in.seekg(0);
+  in.read(magic, sizeof(magic));
+  if (!in || !std::equal(kFramesMagic, kFramesMagic + 8, magic) || vertices != m_combined.u.cols())
     throw_error("{}: not a frame record of this scene ({} vertices)", file.string(), m_combined.u.cols());
   SurfaceAnimation anim;
   anim.tris = m_combined.tris;
   anim.uv = m_combined.u;
   anim.num_vertices = static_cast<Index>(m_combined.u.cols());
-  const std::size_t frames = (data.size() - kFramesHeaderBytes) / record;  // a partial record at the end is ignored
-  const std::size_t floats = 3 * static_cast<std::size_t>(anim.num_vertices);
-  anim.positions.resize(frames * floats);
+  const std::size_t record = frame_record_bytes();
+  const std::size_t frames = (fs::file_size(file) - kFramesHeaderBytes) / record;  // a partial record is ignored
   for (std::size_t k = 0; k < frames; ++k) {
-    const char* r = data.data() + kFramesHeaderBytes + k * record;
-    std::int64_t frame;
-    double time;
-    std::memcpy(&frame, r, sizeof(frame));
-    std::memcpy(&time, r + sizeof(frame), sizeof(time));
-    std::memcpy(anim.positions.data() + k * floats, r + sizeof(frame) + sizeof(time), sizeof(float) * floats);
+    std::int64_t frame = 0;
+    double time = 0.0;
+    in.seekg(static_cast<std::streamoff>(kFramesHeaderBytes + k * record));
+    in.read(reinterpret_cast<char*>(&frame), sizeof(frame));
+    in.read(reinterpret_cast<char*>(&time), sizeof(time));
     anim.frame_numbers.push_back(static_cast<int>(frame));
     anim.times.push_back(time);
   }
-  write_glb(m_dir / kGlbFile, anim, sim.obstacles());
+  if (!in) throw_error("{}: cannot read the frame records", file.string());
+  // The frames stay on disk: a long run's animation would not fit in memory.
+  const auto read = [&](std::size_t k, float* out) {
+    in.seekg(static_cast<std::streamoff>(kFramesHeaderBytes + k * record + sizeof(std::int64_t) + sizeof(double)));
+    in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(record - sizeof(std::int64_t) - sizeof(double)));
+    if (!in) throw_error("{}: cannot read frame record {}", file.string(), k);
+  };
+  write_glb(m_dir / kGlbFile, anim, read, sim.obstacles());
 }
 
 void Recorder::write_checkpoint(const Simulator& sim) const {

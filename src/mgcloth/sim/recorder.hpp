@@ -28,7 +28,8 @@ class Recorder {
   /// Records the stats of the steps of a frame, then the frame (when due) and the checkpoint.
   void record_frame(const Simulator& sim, const std::vector<StepStats>& stats);
   /// Ends recording (after the last frame, or when a run stops early): with the glb format, writes animation.glb
-  /// from every frame recorded so far (write_glb in gltf_export.hpp). Calling it again rewrites it.
+  /// from every frame recorded so far in frames.bin, read from there a frame at a time (write_glb in
+  /// gltf_export.hpp). Calling it again rewrites it.
   void finish(const Simulator& sim);
 
   static std::string stats_header();
@@ -36,6 +37,9 @@ class Recorder {
   static std::filesystem::path frame_path(const std::filesystem::path& dir, int frame);
 
  private:
+  /// With the glb format: InputError when the scene's frames would not fit in a .glb (glb_binary_bytes), so that
+  /// a run is refused before it starts rather than after it ends.
+  void check_glb_size(const Simulator& sim) const;
   /// Positions of m_combined's vertices: every cloth, then every shell's display surface.
   Mat3X surface_positions(const Simulator& sim) const;
   void write_frame(const Simulator& sim) const;
