@@ -63,3 +63,14 @@ TEST_F(BadInput, SceneJsonDuplicateKeysAndOverflowNameFileAndPath) {
                          {"big.json: time_step: number overflow parsing '1e400'"}));
   EXPECT_FALSE(fs::exists(out()));
 }
+
+// A 1e-30 m triangle passed the relative zero-area test and failed in frame 1, in the coarsest Galerkin matrix,
+// after frame 0 had been written.
+TEST_F(BadInput, TinyTriangleIsRejectedAtLoadNamingClothAndTriangle) {
+  write("tiny.obj", "v 0 0 0\nv 1e-30 0 0\nv 0 1e-30 0\nf 1 2 3\n");
+  const auto scene = write("tiny.json", R"({ "frames": 2, "cloths": [ { "name": "speck", "mesh": { "file": "tiny.obj" } } ] })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + scene + " -q --out " + out()),
+                         {"tiny.json: cloths[0] (\"speck\")", "tiny.obj: triangle 0 (vertices 0, 1, 2)",
+                          "1.41e-30 m across in material space"}));
+  EXPECT_FALSE(fs::exists(out()));
+}

@@ -58,6 +58,15 @@ TEST(Inspect, UnitSquareNumbers) {
   EXPECT_NEAR(r.min_angle_deg, 45.0, 1e-12);
 }
 
+TEST(Inspect, ReportsTrianglesBelowTheSizeFloor) {
+  const TriMesh m = test::flat_mesh({{0, 0}, {1e-9, 0}, {0, 1e-9}, {1e-9, 1e-9}}, {{0, 1, 2}, {1, 3, 2}});
+  const MeshReport r = inspect(m);
+  EXPECT_TRUE(r.degenerate_triangles.empty());
+  EXPECT_EQ(r.tiny_triangles, (std::vector<Index>{0, 1}));
+  const std::string text = format_report(r, "tiny.obj");
+  EXPECT_NE(text.find("problem: 2 triangles smaller than 1e-07 m in material space (0, 1)"), std::string::npos) << text;
+}
+
 TEST(Inspect, BrokenMeshIsReportedNotThrown) {
   // 0: fine; 1: degenerate (collinear); 2 and 3 share edge (0, 1) with 0 (non-manifold); 4: index out of range.
   // Vertex 7 is unused and vertex 6 has a NaN.

@@ -107,5 +107,29 @@ TEST(TriMesh, DegeneracyTestSharedWithInspect) {
   EXPECT_TRUE(is_degenerate(m, 1, mean));
 }
 
+// A 1e-30 m triangle passed every relative test and failed only in the solver's coarsest Galerkin matrix; a sliver of
+// area 1e-8 l^2 made the default solver fail to find a descent direction.
+TEST(TriMesh, ValidateRejectsTinyTrianglesAndSlivers) {
+  TriMesh tiny = flat_mesh({{0, 0}, {1e-30, 0}, {0, 1e-30}}, {{0, 1, 2}});
+  EXPECT_TRUE(throws_input_error([&] { validate(tiny, "tiny.obj"); },
+                                 {"tiny.obj: triangle 0 (vertices 0, 1, 2) is 1.41e-30 m across in material space",
+                                  "at least 1e-07 m", "units or material_scale"}));
+  // At the floor's scale, a well-shaped mesh is fine.
+  TriMesh micro = flat_mesh({{0, 0}, {2e-7, 0}, {0, 2e-7}}, {{0, 1, 2}});
+  EXPECT_NO_THROW(validate(micro, "micro"));
+
+  // The unit square with vertex 1 moved towards the diagonal 0-2 (triangle 0's height over it: h).
+  const auto sliver = [](double h) {
+    return flat_mesh({{0, 0}, {0.5 + h / std::sqrt(2.0), 0.5 - h / std::sqrt(2.0)}, {1, 1}, {0, 1}},
+                     {{0, 1, 2}, {0, 2, 3}});
+  };
+  TriMesh thin = sliver(2e-8);  // area 1.4e-8 = 0.7e-8 l^2 with l = sqrt(2)
+  EXPECT_TRUE(throws_input_error([&] { validate(thin, "thin"); },
+                                 {"thin: triangle 0 (vertices 0, 1, 2) has near-zero area in material space",
+                                  "longest edge 1.41 m"}));
+  TriMesh fine = sliver(1e-5);  // a smallest angle of 8e-4 degrees: bad, but not degenerate
+  EXPECT_NO_THROW(validate(fine, "fine"));
+}
+
 }  // namespace
 }  // namespace mgcloth::mesh

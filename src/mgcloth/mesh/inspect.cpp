@@ -68,6 +68,7 @@ MeshReport inspect(const TriMesh& mesh) {
       if (is_zero) {
         r.degenerate_triangles.push_back(t);
       } else {
+        if (longest_material_edge(mesh, t) < kMinMaterialEdge) r.tiny_triangles.push_back(t);
         r.material_area += std::abs(area);
         min_angle = std::min(min_angle, smallest_angle(mesh, f));
         if (area < 0.0) {
@@ -132,6 +133,9 @@ std::string format_report(const MeshReport& r, const std::string& name) {
   if (!r.degenerate_triangles.empty())
     problem(fmt::format("{} degenerate (zero material area) triangles ({})", r.degenerate_triangles.size(),
                         first_indices(r.degenerate_triangles)));
+  if (!r.tiny_triangles.empty())
+    problem(fmt::format("{} triangles smaller than {:g} m in material space ({}); check the units or material scale",
+                        r.tiny_triangles.size(), kMinMaterialEdge, first_indices(r.tiny_triangles)));
   if (!r.non_manifold_edges_first_tri.empty())
     problem(fmt::format("{} non-manifold edges (more than two triangles; at triangles {})",
                         r.non_manifold_edges_first_tri.size(), first_indices(r.non_manifold_edges_first_tri)));

@@ -15,6 +15,7 @@ struct MeshReport {
   double world_area = 0.0;
   double min_edge = 0.0, max_edge = 0.0, mean_edge = 0.0;  ///< material-space edge lengths
   std::vector<Index> degenerate_triangles;                 ///< zero material area (relative tolerance)
+  std::vector<Index> tiny_triangles;  ///< not degenerate, but smaller than kMinMaterialEdge in material space
   std::vector<Index> non_manifold_edges_first_tri;         ///< a triangle of each non-manifold edge
   Index unreferenced_vertices = 0;
   std::vector<Index> invalid_triangles;  ///< an index out of range; left out of every other statistic

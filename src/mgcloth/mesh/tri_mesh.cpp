@@ -17,13 +17,6 @@ bool in_range(const Tri& t, Index n) {
   return t[0] >= 0 && t[0] < n && t[1] >= 0 && t[1] < n && t[2] >= 0 && t[2] < n;
 }
 
-double longest_side_squared(const TriMesh& mesh, Index t) {
-  const Tri& f = mesh.tris[t];
-  double m = 0.0;
-  for (int k = 0; k < 3; ++k) m = std::max(m, (mesh.u.col(f[(k + 1) % 3]) - mesh.u.col(f[k])).squaredNorm());
-  return m;
-}
-
 void check_sizes(const TriMesh& mesh, const std::string& source) {
   if (mesh.u.cols() != mesh.x.cols())
     throw_input_error("{}: has {} world positions but {} material coordinates", source, mesh.x.cols(),
@@ -66,8 +59,14 @@ void check_areas_and_flip(TriMesh& mesh, const std::string& source) {
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
     Tri& f = mesh.tris[t];
     if (is_degenerate(mesh, t, mean_edge))
-      throw_input_error("{}: triangle {} (vertices {}, {}, {}) has zero area in material space", source, t, f[0],
-                        f[1], f[2]);
+      throw_input_error("{}: triangle {} (vertices {}, {}, {}) has near-zero area in material space (area {:.3g} m^2; "
+                        "longest edge {:.3g} m, mean edge {:.3g} m)",
+                        source, t, f[0], f[1], f[2], std::abs(mesh.material_area(t)), longest_material_edge(mesh, t),
+                        mean_edge);
+    if (const double l = longest_material_edge(mesh, t); l < kMinMaterialEdge)
+      throw_input_error("{}: triangle {} (vertices {}, {}, {}) is {:.3g} m across in material space; a cloth element "
+                        "needs at least {:g} m (check the mesh's units or material_scale)",
+                        source, t, f[0], f[1], f[2], l, kMinMaterialEdge);
     if (mesh.material_area(t) < 0.0) std::swap(f[1], f[2]);
   }
 }
@@ -124,10 +123,18 @@ double mean_material_edge_length(const TriMesh& mesh) {
   return count ? sum / static_cast<double>(count) : 0.0;
 }
 
+double longest_material_edge(const TriMesh& mesh, Index t) {
+  const Tri& f = mesh.tris[t];
+  double m = 0.0;
+  for (int k = 0; k < 3; ++k) m = std::max(m, (mesh.u.col(f[(k + 1) % 3]) - mesh.u.col(f[k])).squaredNorm());
+  return std::sqrt(m);
+}
+
 bool is_degenerate(const TriMesh& mesh, Index t, double mean_edge) {
-  const double scale2 = std::max(longest_side_squared(mesh, t), mean_edge * mean_edge);
+  const double l = longest_material_edge(mesh, t);
+  const double tolerance = std::max(kSliverAreaRatio * l * l, kDegenerateAreaRatio * mean_edge * mean_edge);
   // `!(a > b)` rather than `a <= b` so that a NaN area counts as degenerate.
-  return !(std::abs(mesh.material_area(t)) > kDegenerateAreaRatio * scale2);
+  return !(std::abs(mesh.material_area(t)) > tolerance);
 }
 
 void validate(TriMesh& mesh, const std::string& source) {
