@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 using namespace mgcloth;
 
@@ -161,6 +163,19 @@ TEST(ShellScenes, BadShellInputNamesTheField) {
   j = plate("fixed", 1);
   j["shells"][0]["boundary"][0]["sides"] = "middle";
   EXPECT_NE(error_of(j).find("shells[0].boundary[0].sides"), std::string::npos) << error_of(j);
+}
+
+// An OBJ without faces was reported as "every quad is a ghost quad".
+TEST(ShellScenes, EmptyControlMeshIsNamedEmpty) {
+  const auto path = std::filesystem::temp_directory_path() / "mgcloth_empty_control_mesh.obj";
+  std::ofstream(path) << "# nothing here\nv 0 0 0\n";
+  Json j = plate("fixed", 1);
+  j["shells"][0]["control_mesh"] = {{"file", path.string()}};
+  EXPECT_NE(error_of(j).find("bad.json: shells[0] (\"plate\"): " + path.string() +
+                             ": the control mesh is empty: it has no quads (f lines)"),
+            std::string::npos)
+      << error_of(j);
+  std::filesystem::remove(path);
 }
 
 TEST(ShellScenes, ResolvedShellSceneRoundTrips) {

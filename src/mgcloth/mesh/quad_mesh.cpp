@@ -193,6 +193,7 @@ std::vector<std::pair<Index, int>> real_boundary_edges(const QuadMesh& m) {
 
 void validate(const QuadMesh& m, const std::string& source) {
   const Index n = m.num_vertices();
+  if (m.num_faces() == 0) throw_input_error("{}: the control mesh is empty: it has no quads (f lines)", source);
   if (m.u.cols() != n) throw_input_error("{}: {} positions but {} material coordinates", source, n, m.u.cols());
   if (!m.ghost_face.empty() && static_cast<Index>(m.ghost_face.size()) != m.num_faces())
     throw_input_error("{}: ghost flags for {} of {} quads", source, m.ghost_face.size(), m.num_faces());
