@@ -71,6 +71,13 @@ TEST(Scene, BadValuesNameTheField) {
   EXPECT_NE(error_of(j).find("duplicate cloth name"), std::string::npos);
 }
 
+// "Invalid argument []" came from the filesystem library when the run created its folder.
+TEST(Scene, EmptyOutputDirIsRejected) {
+  Json j = minimal();
+  j["output"] = {{"dir", ""}};
+  EXPECT_EQ(error_of(j), "scene.json: output.dir: must not be empty (leave it out for the default \"out\")");
+}
+
 TEST(Scene, MalformedJsonGivesLineAndColumn) {
   try {
     parse_json("{\n  \"frames\": 3,\n  \"cloths\": [ ,]\n}", "bad.json");

@@ -289,6 +289,7 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   }
   if (auto o = r.optional_object("output")) {
     s.output.dir = o->string("dir", s.output.dir);
+    if (s.output.dir.empty()) o->fail("dir", "must not be empty (leave it out for the default \"out\")");
     s.output.every = o->integer("every", s.output.every, 1, 1'000'000);
     if (o->has("format")) {
       s.output.formats.clear();
