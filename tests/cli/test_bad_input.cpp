@@ -74,3 +74,19 @@ TEST_F(BadInput, TinyTriangleIsRejectedAtLoadNamingClothAndTriangle) {
                           "1.41e-30 m across in material space"}));
   EXPECT_FALSE(fs::exists(out()));
 }
+
+TEST_F(BadInput, SceneMessagesNameTheRealMistake) {
+  // The misspelled key, not the cloth it leaves missing.
+  const auto typo = write("typo.json", R"({ "frames": 2, "cloth": [ { "mesh": {} } ] })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + typo + " -q --out " + out()),
+                         {"typo.json: cloth: unknown key (did you mean \"cloths\"?)"}));
+  // Was "Invalid argument []".
+  const auto dir_empty = write("dir.json", R"({ "frames": 2, "cloths": [ { "mesh": {} } ], "output": { "dir": "" } })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + dir_empty + " -q"), {"dir.json: output.dir: must not be empty"}));
+  // Was "every quad is a ghost quad".
+  const auto empty = write("empty.obj", "# no faces\n");
+  const auto shell = write("shell.json", R"({ "frames": 1, "shells": [ { "name": "sheet", "control_mesh": { "file": "empty.obj" } } ] })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + shell + " -q --out " + out()),
+                         {"shell.json: shells[0] (\"sheet\"): ", empty + ": the control mesh is empty"}));
+  EXPECT_FALSE(fs::exists(out()));
+}

@@ -71,6 +71,26 @@ TEST(Scene, BadValuesNameTheField) {
   EXPECT_NE(error_of(j).find("duplicate cloth name"), std::string::npos);
 }
 
+// A misspelled key used to lose to the missing field it was meant to be ("cloths: a scene needs at least one
+// cloth", "cloths[0].mesh: missing required field").
+TEST(Scene, UnknownKeysAreReportedBeforeMissingOnes) {
+  Json j = Json::parse(R"({"clths": [ { "mesh": {} } ]})");
+  EXPECT_EQ(error_of(j), "scene.json: clths: unknown key (did you mean \"cloths\"?)");
+  j = Json::parse(R"({"frmes": 10})");
+  EXPECT_EQ(error_of(j), "scene.json: frmes: unknown key (did you mean \"frames\"?)");
+  j = Json::parse(R"({"bogus": 1})");
+  EXPECT_EQ(error_of(j), "scene.json: bogus: unknown key");
+  j = Json::parse(R"({"cloths": [ { "mseh": {} } ]})");
+  EXPECT_EQ(error_of(j), "scene.json: cloths[0].mseh: unknown key (did you mean \"mesh\"?)");
+  j = Json::parse(R"({"cloths": [ { "mesh": {} } ], "obstacles": [ { "shape": { "type": "sphere", "raduis": 1 } } ]})");
+  EXPECT_EQ(error_of(j), "scene.json: obstacles[0].shape.raduis: unknown key (did you mean \"radius\"?)");
+  j = Json::parse(R"({"cloths": [ { "mesh": {} } ], "obstacles": [ { "shape": { "type": "sphere" } } ]})");
+  EXPECT_EQ(error_of(j), "scene.json: obstacles[0].shape.radius: missing required field");
+  j = minimal();
+  j["cloths"][0]["material"] = {{"youngs_modulis", 1e6}};
+  EXPECT_EQ(error_of(j), "scene.json: cloths[0].material.youngs_modulis: unknown key (did you mean \"youngs_modulus\"?)");
+}
+
 // "Invalid argument []" came from the filesystem library when the run created its folder.
 TEST(Scene, EmptyOutputDirIsRejected) {
   Json j = minimal();

@@ -1,6 +1,7 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/core/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth {
@@ -21,9 +22,40 @@ void JsonReader::fail(const std::string& key, const std::string& what) const {
   throw InputError(fmt::format("{}: {}: {}", m_file, path_of(key), what));
 }
 
+namespace {
+
+/// Optimal string alignment distance: insertions, deletions, substitutions and swaps of neighbours cost one.
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i)
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1])});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  return d[a.size()][b.size()];
+}
+
+/// Whether `typed` is probably a misspelling of `meant`: up to one edit, two from six letters on.
+bool looks_like(const std::string& typed, const std::string& meant) {
+  if (typed == meant) return false;
+  const std::size_t allowed = std::max(typed.size(), meant.size()) >= 6 ? 2 : 1;
+  return (typed.size() > meant.size() ? typed.size() - meant.size() : meant.size() - typed.size()) <= allowed &&
+         edit_distance(typed, meant) <= allowed;
+}
+
+}  // namespace
+
 const Json& JsonReader::at(const std::string& key) {
   m_used.insert(key);
-  if (!m_json->contains(key)) fail(key, "missing required field");
+  if (!m_json->contains(key)) {
+    // A misspelled key is the likelier mistake than a missing one: report it, as finish() would have.
+    for (auto it = m_json->begin(); it != m_json->end(); ++it)
+      if (!m_used.count(it.key()) && looks_like(it.key(), key))
+        fail(it.key(), fmt::format("unknown key (did you mean \"{}\"?)", key));
+    fail(key, "missing required field");
+  }
   return (*m_json)[key];
 }
 
@@ -165,7 +197,10 @@ std::vector<JsonReader> JsonReader::objects(const std::string& key) {
 void JsonReader::finish() const {
   for (auto it = m_json->begin(); it != m_json->end(); ++it) {
     // null means "absent" everywhere, so an explicit null is never an unknown key.
-    if (!m_used.count(it.key()) && !it.value().is_null()) fail(it.key(), "unknown key");
+    if (m_used.count(it.key()) || it.value().is_null()) continue;
+    for (const std::string& known : m_used)
+      if (looks_like(it.key(), known)) fail(it.key(), fmt::format("unknown key (did you mean \"{}\"?)", known));
+    fail(it.key(), "unknown key");
   }
 }
 

@@ -242,7 +242,6 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   s.threads = r.integer("threads", s.threads, 0, 1024);
   const auto cloths = r.objects("cloths");
   const auto shells = r.objects("shells");
-  if (cloths.empty() && shells.empty()) r.fail("cloths", "a scene needs at least one cloth or shell");
   for (size_t i = 0; i < shells.size(); ++i) {
     s.shells.push_back(parse_shell(shells[i], base, i));
     for (size_t j = 0; j < i; ++j)
@@ -309,7 +308,9 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     }
     o->finish();
   }
+  // After the unknown keys: with "cloths" misspelled, the misspelling is the error to report.
   r.finish();
+  if (cloths.empty() && shells.empty()) r.fail("cloths", "a scene needs at least one cloth or shell");
   return s;
 }
 
