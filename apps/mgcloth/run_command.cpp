@@ -8,6 +8,7 @@
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/recorder.hpp>
 
+#include <algorithm>
 #include <filesystem>
 
 namespace mgcloth::cli {
@@ -16,14 +17,20 @@ namespace {
 struct RunOptions {
   std::string scene;
   std::string out;
-  int frames = -1;
+  long long frames = 0;
   std::string solver;
-  int threads = 0;
-  int level = 0;
+  long long threads = 0;
+  long long level = 0;
   bool resume = false;
   bool quiet = false;
   bool verbose = false;
   bool trace = false;
+  // Whether each override was given: 0 and "" are values to check, not "absent".
+  CLI::Option* out_option = nullptr;
+  CLI::Option* frames_option = nullptr;
+  CLI::Option* solver_option = nullptr;
+  CLI::Option* threads_option = nullptr;
+  CLI::Option* level_option = nullptr;
 } g_run;
 
 struct InfoOptions {
@@ -31,23 +38,79 @@ struct InfoOptions {
   double material_scale = 1.0;
 } g_info;
 
-int run() {
-  if (g_run.verbose) logger().set_level(spdlog::level::debug);
-  sim::Scene scene = sim::load_scene(g_run.scene);
-  if (g_run.frames >= 0) scene.frames = g_run.frames;
-  if (!g_run.solver.empty()) {
+/// A command-line value that replaces one of the scene's, at a JSON path of the scene.
+struct Override {
+  std::string option;
+  std::string value;  ///< as given, for messages
+  std::string path;   ///< "frames", "shells[0].level"
+  Json::json_pointer pointer;
+  Json json;
+};
+
+/// The scene with the overrides written into its JSON before it is parsed, so that they pass the scene's own
+/// checks and ranges (and scene.resolved.json is a scene that mgcloth reads back); an error about an overridden
+/// field names the option instead of the file.
+sim::Scene load_scene_with(const std::string& file, Json j, const std::vector<Override>& overrides) {
+  const std::filesystem::path path(file);
+  const std::filesystem::path base = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  try {
+    for (const Override& o : overrides) j[o.pointer] = o.json;
+  } catch (const Json::exception&) {
+    return sim::parse_scene(j, file, base);  // the file has a non-object where an override goes: its error
+  }
+  try {
+    return sim::parse_scene(j, file, base);
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    for (const Override& o : overrides) {
+      const std::string prefix = fmt::format("{}: {}: ", file, o.path);
+      if (what.rfind(prefix, 0) == 0)
+        throw InputError(fmt::format("{} {}: {}", o.option, o.value, what.substr(prefix.size())));
+    }
+    throw;
+  }
+}
+
+sim::Scene scene_of_run() {
+  const std::string& file = g_run.scene;
+  if (!std::filesystem::exists(file)) throw InputError(fmt::format("{}: no such scene file", file));
+  const Json j = load_json(file);
+  std::vector<Override> overrides;
+  const auto add = [&](const std::string& option, const std::string& path, const std::string& pointer, Json value) {
+    const std::string text = value.is_string() ? value.get<std::string>() : value.dump();
+    overrides.push_back({option, text, path, Json::json_pointer(pointer), std::move(value)});
+  };
+  if (g_run.frames_option->count()) add("--frames", "frames", "/frames", g_run.frames);
+  if (g_run.threads_option->count()) add("--threads", "threads", "/threads", g_run.threads);
+  if (g_run.out_option->count()) {
+    if (g_run.out.empty()) throw InputError("--out: must not be empty (leave it out for the scene's output.dir)");
+    add("--out", "output.dir", "/output/dir", g_run.out);
+  }
+  if (g_run.level_option->count()) {
+    const Json* shells = j.contains("shells") && j["shells"].is_array() ? &j["shells"] : nullptr;
+    if (!shells || shells->empty()) throw InputError("--level: the scene has no shells");
+    for (size_t i = 0; i < shells->size(); ++i)
+      add("--level", fmt::format("shells[{}].level", i), fmt::format("/shells/{}/level", i), g_run.level);
+  }
+  if (g_run.solver_option->count()) {
     const auto names = solvers::solver_names();
     if (std::find(names.begin(), names.end(), g_run.solver) == names.end())
-      throw InputError(fmt::format("--solver: unknown solver \"{}\" (available: {})", g_run.solver, fmt::join(names, ", ")));
-    if (g_run.solver != scene.solver.name) scene.solver.params = Json::object();
-    scene.solver.name = g_run.solver;
+      throw InputError(fmt::format("--solver: {} (available: {})",
+                                   g_run.solver.empty() ? "must not be empty"
+                                                        : fmt::format("unknown solver \"{}\"", g_run.solver),
+                                   fmt::join(names, ", ")));
+    // The scene's solver parameters belong to its own solver: another one starts from its defaults.
+    const std::string before = load_scene_with(file, j, {}).solver.name;
+    if (g_run.solver != before && j.contains("solver") && j["solver"].is_object() && j["solver"].contains("params"))
+      add("--solver", "solver.params", "/solver/params", Json::object());
+    add("--solver", "solver.name", "/solver/name", g_run.solver);
   }
-  if (g_run.threads > 0) scene.threads = g_run.threads;
-  if (g_run.level > 0) {
-    if (scene.shells.empty()) throw InputError("--level: the scene has no shells");
-    for (auto& sh : scene.shells) sh.level = g_run.level;
-  }
-  if (!g_run.out.empty()) scene.output.dir = g_run.out;
+  return load_scene_with(file, j, overrides);
+}
+
+int run() {
+  if (g_run.verbose) logger().set_level(spdlog::level::debug);
+  sim::Scene scene = scene_of_run();
   const std::filesystem::path dir = scene.output.dir;
 
   Timer setup;
@@ -104,11 +167,16 @@ int info() {
 void add_run_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("run", "Simulate a scene and write its animation");
   cmd->add_option("scene", g_run.scene, "Scene file (JSON; see docs/scene-format.md)")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--out,-o", g_run.out, "Output folder (default: the scene's output.dir)");
-  cmd->add_option("--frames,-n", g_run.frames, "Number of frames (default: the scene's frames)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--solver,-s", g_run.solver, "Solver name (overrides the scene's solver.name)");
-  cmd->add_option("--threads,-j", g_run.threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
-  cmd->add_option("--level", g_run.level, "Subdivision level of every shell, 1-9 (default: the scene's)")->check(CLI::Range(1, 9));
+  // Ranges are the scene's (docs/scene-format.md): the values are checked as the scene's fields they replace.
+  g_run.out_option = cmd->add_option("--out,-o", g_run.out, "Output folder (default: the scene's output.dir)");
+  g_run.frames_option =
+      cmd->add_option("--frames,-n", g_run.frames, "Number of frames, 0-10000000 (default: the scene's frames)");
+  g_run.solver_option =
+      cmd->add_option("--solver,-s", g_run.solver, "Solver name (overrides the scene's solver.name)");
+  g_run.threads_option = cmd->add_option("--threads,-j", g_run.threads,
+                                         "Worker threads, 0-1024; 0: all cores (default: the scene's threads)");
+  g_run.level_option =
+      cmd->add_option("--level", g_run.level, "Subdivision level of every shell, 1-9 (default: the scene's)");
   cmd->add_flag("--resume", g_run.resume, "Continue an interrupted run in --out from its last complete frame");
   cmd->add_flag("--trace", g_run.trace, "Also write trace.csv: energy, gradient norm and wall time of every solver iteration");
   cmd->add_flag("--quiet,-q", g_run.quiet, "No progress output");

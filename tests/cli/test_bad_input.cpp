@@ -90,3 +90,29 @@ TEST_F(BadInput, SceneMessagesNameTheRealMistake) {
                          {"shell.json: shells[0] (\"sheet\"): ", empty + ": the control mesh is empty"}));
   EXPECT_FALSE(fs::exists(out()));
 }
+
+namespace {
+const char* kSmallScene = R"({ "frames": 2, "cloths": [ { "mesh": { "vertices": 50 }, "pins": [ { "vertices": [0] } ] } ] })";
+}  // namespace
+
+// Overrides skipped the scene's range checks and wrote a scene.resolved.json that mgcloth itself rejected.
+TEST_F(BadInput, CommandLineOverridesPassTheScenesChecks) {
+  const auto scene = write("scene.json", kSmallScene);
+  const auto run = [&](const std::string& args) { return mgcloth::test::run_cli("run " + scene + " -q " + args); };
+  EXPECT_TRUE(fails_with(run("--threads 99999 --out " + out()), {"--threads 99999: must be in [0, 1024], got 99999"}));
+  EXPECT_TRUE(fails_with(run("--frames 10000001 --out " + out()), {"--frames 10000001: must be in [0, 10000000]"}));
+  EXPECT_TRUE(fails_with(run("--frames -1 --out " + out()), {"--frames -1: must be in [0, 10000000], got -1"}));
+  EXPECT_TRUE(fails_with(run("--level 3 --out " + out()), {"--level: the scene has no shells"}));
+  EXPECT_FALSE(fs::exists(out()));
+  // Silently ignored before.
+  EXPECT_TRUE(fails_with(run("--out ''"), {"--out: must not be empty"}));
+  EXPECT_TRUE(fails_with(run("--solver '' --out " + out()), {"--solver: must not be empty (available: fmg"}));
+  EXPECT_FALSE(fs::exists(out()));
+  // Accepted overrides make a resolved scene that reads back (0 threads: all cores, as in the scene).
+  const auto ok = run("--threads 0 --frames 1 --solver newton-direct --out " + out());
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  const auto resolved = mgcloth::read_file(dir / "out" / "scene.resolved.json");
+  EXPECT_NE(resolved.find("\"newton-direct\""), std::string::npos);
+  const auto again = mgcloth::test::run_cli("run " + (dir / "out" / "scene.resolved.json").string() + " -q --out " + out("again"));
+  EXPECT_EQ(again.code, 0) << again.out;
+}
