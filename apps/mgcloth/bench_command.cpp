@@ -593,7 +593,7 @@ void add_bench_command(CLI::App& app) {
   auto* pj = bench->add_subcommand(
       "projections", "Build time, memory and exactness of reverse subdivision vs least squares per level (Kopanicakova 2019, Table 8)");
   pj->add_option("scene", g_proj.scene, "Shell scene file (JSON); its first shell")->required();
-  pj->add_option("--level", g_proj.level, "Subdivision level (default: the scene's)")->check(CLI::Range(1, 9));
+  pj->add_option("--level", g_proj.level, "Subdivision level (default: the scene's)")->check(requires_number([](double l) { return l >= 1 && l <= 9; }, "a level in [1, 9]"));
   pj->add_option("--out,-o", g_proj.out, "Output folder (created if missing)")->required();
   pj->add_flag("--quiet,-q", g_proj.quiet, "No progress log");
 }

@@ -1,7 +1,24 @@
 #pragma once
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
 
 namespace mgcloth::cli {
+
+/// An option's value check that says what it requires: "must be <requirement> (got <value>)". CLI11's own bound
+/// checks print an unbounded side as the largest double, 309 digits long.
+inline CLI::Validator requires_number(std::function<bool(double)> ok, const std::string& requirement) {
+  return CLI::Validator(
+      [ok = std::move(ok), requirement](std::string& in) -> std::string {
+        double v = 0.0;
+        if (!CLI::detail::lexical_cast(in, v) || !std::isfinite(v)) return fmt::format("expected a number (got {})", in);
+        return ok(v) ? std::string() : fmt::format("must be {} (got {})", requirement, in);
+      },
+      requirement);
+}
 
 void add_run_command(CLI::App& app);
 void add_info_command(CLI::App& app);

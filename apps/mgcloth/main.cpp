@@ -21,7 +21,9 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help, --version
+    std::fprintf(stderr, "mgcloth: error: %s (see --help)\n", e.what());
+    return 1;
   }
   try {
     if (CLI::App* bench = app.get_subcommand("bench"); bench->parsed()) return mgcloth::cli::run_bench_command(*bench);

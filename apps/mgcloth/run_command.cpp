@@ -186,7 +186,8 @@ void add_run_command(CLI::App& app) {
 void add_info_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("info", "Print a mesh's size, boundaries, area and defects");
   cmd->add_option("mesh", g_info.mesh, "OBJ file")->required();
-  cmd->add_option("--material-scale", g_info.material_scale, "Metres per UV unit")->check(CLI::PositiveNumber);
+  cmd->add_option("--material-scale", g_info.material_scale, "Metres per UV unit, 1e-9 to 1e9")
+      ->check(requires_number([](double m) { return m >= 1e-9 && m <= 1e9; }, "in [1e-9, 1e9] (the scene's range)"));
 }
 
 int dispatch(CLI::App& app) {

@@ -270,20 +270,25 @@ int render() {
 void add_view_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("view", "Serve a run's animation and stats (or a bench folder's plot) to a browser");
   cmd->add_option("dir", g_view.dir, "Output folder of mgcloth run or mgcloth bench")->required();
-  cmd->add_option("--port,-p", g_view.port, "Port on 127.0.0.1 (0: a free one; the URL is printed)")->check(CLI::Range(0, 65535));
+  cmd->add_option("--port,-p", g_view.port, "Port on 127.0.0.1 (0: a free one; the URL is printed)")
+      ->check(requires_number([](double p) { return p >= 0 && p <= 65535; }, "a port in [0, 65535]"));
 }
 
 void add_render_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render a frame of a run (or a bench folder's plot) to PNG in headless Chromium");
   cmd->add_option("dir", g_render.dir, "Output folder of mgcloth run or mgcloth bench convergence")->required();
   cmd->add_option("--out,-o", g_render.out, "PNG file to write")->required();
-  cmd->add_option("--frame,-f", g_render.frame, "Frame number (default: the last)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--width", g_render.width, "Picture width, px")->check(CLI::Range(64, 8192));
-  cmd->add_option("--height", g_render.height, "Picture height, px")->check(CLI::Range(64, 8192));
+  cmd->add_option("--frame,-f", g_render.frame, "Frame number (default: the last)")
+      ->check(requires_number([](double f) { return f >= 0; }, "a frame number >= 0"));
+  cmd->add_option("--width", g_render.width, "Picture width, px")
+      ->check(requires_number([](double w) { return w >= 64 && w <= 8192; }, "in [64, 8192]"));
+  cmd->add_option("--height", g_render.height, "Picture height, px")
+      ->check(requires_number([](double h) { return h >= 64 && h <= 8192; }, "in [64, 8192]"));
   cmd->add_flag("--wireframe", g_render.wireframe, "Draw the cloth's triangle edges instead of shading it");
   cmd->add_option("--source", g_render.source, "Frames from animation.glb or the OBJ files (auto: glb when present)")
       ->check(CLI::IsMember({"auto", "glb", "obj"}));
-  cmd->add_option("--timeout", g_render.timeout, "Seconds to wait for the page")->check(CLI::PositiveNumber);
+  cmd->add_option("--timeout", g_render.timeout, "Seconds to wait for the page")
+      ->check(requires_number([](double t) { return t > 0; }, "a positive number of seconds"));
 }
 
 int run_view_command() { return view(); }

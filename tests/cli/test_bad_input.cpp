@@ -116,3 +116,20 @@ TEST_F(BadInput, CommandLineOverridesPassTheScenesChecks) {
   const auto again = mgcloth::test::run_cli("run " + (dir / "out" / "scene.resolved.json").string() + " -q --out " + out("again"));
   EXPECT_EQ(again.code, 0) << again.out;
 }
+
+// CLI11's checks printed the largest double, 309 digits, as the bound.
+TEST_F(BadInput, OptionRangesAreSaidPlainly) {
+  const auto scene = write("scene.json", kSmallScene);
+  const auto r = mgcloth::test::run_cli("run " + scene + " -q --threads -1 --out " + out());
+  EXPECT_TRUE(fails_with(r, {"--threads -1: must be in [0, 1024], got -1"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("render " + dir.string() + " --out x.png --frame -1"),
+                         {"--frame: must be a frame number >= 0 (got -1)"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("info " + scene + " --material-scale 0"),
+                         {"--material-scale: must be in [1e-9, 1e9]"}));
+  // A negative number is a value, then out of range ("At Most 1 required but received 2" was reported for it).
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("bench convergence " + scene + " --step 1 --solvers fmg --out " + out() +
+                                                " --budget -1"),
+                         {"--budget: must be a positive number of seconds (got -1)"}));
+  // Parse errors are one line too.
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run"), {"scene is required"}));
+}
