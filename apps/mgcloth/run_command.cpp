@@ -7,6 +7,7 @@
 #include <mgcloth/mesh/inspect.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/recorder.hpp>
+#include <mgcloth/sim/solver_fit.hpp>
 
 #include <algorithm>
 #include <filesystem>
@@ -115,6 +116,7 @@ int run() {
 
   Timer setup;
   sim::Simulator sim(std::move(scene));
+  sim::check_solver_fits(sim);  // before anything is written
   sim.set_record_trace(g_run.trace);
   sim::Recorder rec(dir, sim, g_run.trace);
   if (g_run.resume) {

@@ -5,6 +5,7 @@
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/sim/simulator.hpp>
+#include <mgcloth/sim/solver_fit.hpp>
 
 #include <pybind11/stl.h>
 
@@ -56,6 +57,7 @@ class PySimulator {
     }
     if (resume && m_out.empty()) throw_input_error("resume: needs out, the folder of the run to continue");
     m_sim = std::make_unique<sim::Simulator>(sim::parse_scene(j, file, base_dir), m_meshes);
+    sim::check_solver_fits(*m_sim);
     m_sim->set_record_trace(trace);
     if (m_out.empty()) return;
     fs::create_directories(m_out);

@@ -99,3 +99,10 @@ def test_scene_file_errors_match_the_cli(tmp_path, cli):
     assert r.stderr.strip() == f"mgcloth: error: {python_error.value}"
     with pytest.raises(mgcloth.InputError, match="no such scene file"):
         mgcloth.Simulation(tmp_path / "missing.json")
+
+
+def test_solver_that_cannot_work_on_the_cloth_fails_at_construction(small_grid):
+    V, F = small_grid
+    with pytest.raises(mgcloth.InputError, match=r'cloths\[0\] \("cloth0"\): solver rmtr needs a mesh hierarchy of at '
+                                                 r'least two levels, but the cloth\'s 64 vertices'):
+        mgcloth.Simulation({"solver": {"name": "rmtr"}}, cloths=[mgcloth.Cloth(V, F)])

@@ -133,3 +133,17 @@ TEST_F(BadInput, OptionRangesAreSaidPlainly) {
   // Parse errors are one line too.
   EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run"), {"scene is required"}));
 }
+
+// rmtr blamed "a shell of level 1" on a cloth scene, after writing frame 0.
+TEST_F(BadInput, SolverThatCannotWorkOnTheBodiesFailsBeforeAnyOutput) {
+  const auto scene = write("scene.json", kSmallScene);
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + scene + " -q --solver rmtr --out " + out()),
+                         {"scene.json: cloths[0] (\"cloth0\"): solver rmtr needs a mesh hierarchy of at least two "
+                          "levels", "hierarchy.max_coarse_vertices (400)", "(fmg, newton-direct, tr-dogleg"}));
+  const auto shell = write("shell.json", R"({ "frames": 1, "shells": [ { "name": "sheet", "level": 1,
+    "control_mesh": { "generator": "rectangle", "cells_u": 2, "cells_v": 2 } } ], "solver": { "name": "rmtr" } })");
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + shell + " -q --out " + out()),
+                         {"shell.json: shells[0] (\"sheet\"): solver rmtr needs at least two levels",
+                          "the shell is subdivided to level 1"}));
+  EXPECT_FALSE(fs::exists(out()));
+}
