@@ -147,3 +147,14 @@ TEST_F(BadInput, SolverThatCannotWorkOnTheBodiesFailsBeforeAnyOutput) {
                           "the shell is subdivided to level 1"}));
   EXPECT_FALSE(fs::exists(out()));
 }
+
+// A cloth named "a,b" or with a newline, quote or NUL made stats.csv unreadable.
+TEST_F(BadInput, ClothNamesThatBreakStatsCsvAreRejected) {
+  for (const std::string& name : {std::string("a,b"), std::string("x\\ny"), std::string("q\\\"q"), std::string("n\\u0000l")}) {
+    const auto scene = write("names.json", R"({ "frames": 1, "cloths": [ { "name": ")" + name + R"(", "mesh": { "vertices": 50 } } ] })");
+    EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + scene + " -q --out " + out()),
+                           {"names.json: cloths[0].name: ", "a name goes unquoted into CSV columns"}))
+        << name;
+  }
+  EXPECT_FALSE(fs::exists(out()));
+}

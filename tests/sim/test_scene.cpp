@@ -98,6 +98,34 @@ TEST(Scene, EmptyOutputDirIsRejected) {
   EXPECT_EQ(error_of(j), "scene.json: output.dir: must not be empty (leave it out for the default \"out\")");
 }
 
+// Names go unquoted into stats.csv and into folder names: a comma, quote, newline or NUL broke the CSV's columns.
+TEST(Scene, NamesThatWouldBreakCsvOrPathsAreRejected) {
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"a,b", "contains ','"},
+      {"say \"hi\"", "contains '\"'"},
+      {"two\nlines", "contains the control character 0x0a"},
+      {std::string("nul\0byte", 8), "contains the control character 0x00"},
+      {"tab\there", "control character 0x09"},
+      {"../up", "contains '/'"},
+      {"..", "is a folder name"},
+      {"", "is empty"},
+      {std::string(65, 'x'), "is 65 bytes long"},
+  };
+  for (const auto& [name, why] : bad) {
+    Json j = minimal();
+    j["cloths"][0]["name"] = name;
+    const std::string e = error_of(j);
+    EXPECT_EQ(e.rfind("scene.json: cloths[0].name: " + Json(name).dump() + " " + why + ": a name goes unquoted", 0), 0u)
+        << e;
+    j = minimal();
+    j["obstacles"] = Json::array({{{"name", name}, {"shape", {{"type", "plane"}}}}});
+    EXPECT_NE(error_of(j).find("obstacles[0].name: "), std::string::npos) << error_of(j);
+  }
+  Json j = minimal();
+  j["cloths"][0]["name"] = "Ärmel links (panel-3)";
+  EXPECT_EQ(error_of(j), "");
+}
+
 TEST(Scene, MalformedJsonGivesLineAndColumn) {
   try {
     parse_json("{\n  \"frames\": 3,\n  \"cloths\": [ ,]\n}", "bad.json");

@@ -165,6 +165,12 @@ TEST(ShellScenes, BadShellInputNamesTheField) {
   EXPECT_NE(error_of(j).find("shells[0].boundary[0].sides"), std::string::npos) << error_of(j);
 }
 
+TEST(ShellScenes, ShellNamesAreCheckedLikeClothNames) {
+  Json j = plate("fixed", 1);
+  j["shells"][0]["name"] = "plate,1";
+  EXPECT_NE(error_of(j).find("bad.json: shells[0].name: \"plate,1\" contains ','"), std::string::npos) << error_of(j);
+}
+
 // An OBJ without faces was reported as "every quad is a ghost quad".
 TEST(ShellScenes, EmptyControlMeshIsNamedEmpty) {
   const auto path = std::filesystem::temp_directory_path() / "mgcloth_empty_control_mesh.obj";

@@ -109,6 +109,24 @@ std::string JsonReader::string(const std::string& key, const std::string& fallba
   return v.get<std::string>();
 }
 
+std::string JsonReader::name(const std::string& key, const std::string& fallback) {
+  const std::string n = string(key, fallback);
+  const auto bad = [&](const std::string& why) {
+    fail(key, fmt::format("{} {}: a name goes unquoted into CSV columns and folder names (1 to 64 bytes; no control "
+                          "characters, no , \" / \\)",
+                          Json(n).dump(), why));
+  };
+  if (n.empty()) bad("is empty");
+  if (n.size() > 64) bad(fmt::format("is {} bytes long", n.size()));
+  if (n == "." || n == "..") bad("is a folder name");
+  for (const char c : n) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) bad(fmt::format("contains the control character 0x{:02x}", u));
+    if (c == ',' || c == '"' || c == '/' || c == '\\') bad(fmt::format("contains '{}'", c));
+  }
+  return n;
+}
+
 std::string JsonReader::required_string(const std::string& key) {
   const Json& v = at(key);
   if (!v.is_string()) fail(key, fmt::format("expected a string, got {}", v.dump()));

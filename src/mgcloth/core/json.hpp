@@ -35,6 +35,11 @@ class JsonReader {
   bool boolean(const std::string& key, bool fallback);
   std::string string(const std::string& key, const std::string& fallback);
   std::string required_string(const std::string& key);
+  /// A body's name (cloth, shell, obstacle). Names are written unquoted into CSV columns (stats.csv, trace.csv,
+  /// probes.csv), folder names (`mgcloth hierarchy`) and log lines, so they are restricted rather than quoted
+  /// everywhere: 1 to 64 bytes, no control character (newline, tab, NUL, ...), none of , " / \, and not "." or "..".
+  /// Letters of any script, digits, spaces and other punctuation are fine.
+  std::string name(const std::string& key, const std::string& fallback);
   /// A string from a closed set of choices.
   std::string choice(const std::string& key, const std::string& fallback, const std::vector<std::string>& choices);
   Vec3 vec3(const std::string& key, const Vec3& fallback);

@@ -129,7 +129,7 @@ PinSpec parse_pin(JsonReader r) {
 
 ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
   ClothSpec c;
-  c.name = r.string("name", fmt::format("cloth{}", index));
+  c.name = r.name("name", fmt::format("cloth{}", index));
   c.mesh = parse_mesh(r.object("mesh"), base);
   if (auto t = r.optional_object("transform")) {
     c.transform.translation = t->vec3("translation", Vec3::Zero());
@@ -150,7 +150,7 @@ ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
 
 ObstacleSpec parse_obstacle(JsonReader r, size_t index) {
   ObstacleSpec o;
-  o.name = r.string("name", fmt::format("obstacle{}", index));
+  o.name = r.name("name", fmt::format("obstacle{}", index));
   JsonReader s = r.object("shape");
   o.shape = s.choice("type", "sphere", {"plane", "sphere", "box", "capsule"});
   if (o.shape == "sphere" || o.shape == "capsule") o.radius = s.required_number("radius", 1e-6, 1e4);

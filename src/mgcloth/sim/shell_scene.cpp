@@ -87,7 +87,7 @@ physics::ShellMaterial parse_material(JsonReader& r, std::string& preset) {
 
 ShellSpec parse_shell(JsonReader r, const fs::path& base, size_t index) {
   ShellSpec s;
-  s.name = r.string("name", fmt::format("shell{}", index));
+  s.name = r.name("name", fmt::format("shell{}", index));
   {
     JsonReader m = r.object("control_mesh");
     auto& ms = s.mesh;
