@@ -181,7 +181,7 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
     } else {
       throw InputError(fmt::format(
           "fmg-cuda: the objective's term \"{}\" has no device implementation (the GPU pipeline takes inertia, gravity, "
-          "the StVK membrane, hinge or quadratic bending, pins and the cubic obstacle penalty; use \"fmg\")",
+          "the StVK membrane, hinge or quadratic-bergou bending, pins and the cubic obstacle penalty; use \"fmg\")",
           t->name()));
     }
   }

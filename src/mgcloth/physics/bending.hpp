@@ -4,6 +4,9 @@
 #include <mgcloth/physics/element_term.hpp>
 #include <mgcloth/physics/material.hpp>
 
+#include <Eigen/SparseCore>
+#include <memory>
+
 namespace mgcloth::physics {
 
 using Vec12 = Eigen::Matrix<double, 12, 1>;
@@ -35,6 +38,47 @@ class HingeBending final : public ElementTerm<4> {
   std::vector<double> m_weight;
 };
 
+/// Curvature of every triangle as a linear function of one scalar field w on the vertices: S_T = Σ_j W_Tj w_j, the
+/// weights W_Tj = (xx, xy, yy) in material coordinates. S_T = (1/A_T) Σ_e |e| (s_e − ∇w_T·ν_e) ν_e ν_eᵀ over the
+/// triangle's sides (ν_e the outward side normal, ∇w_T the gradient of the linear interpolant): the Hessian of the
+/// Morley quadratic on T whose normal slopes at the side midpoints are s_e. Each interior edge's s_e is the slope at
+/// its midpoint of the quadratic through six vertices around it (the edge's two triangles and the two vertices
+/// nearest the midpoint that keep the fit well posed), shared by both triangles. So S_T is exact for quadratic w on
+/// any mesh, and, the slopes being shared, Σ_T A_T S_T depends on boundary values only (the Morley element's patch
+/// test): a quadratic w is the exact minimizer of the energy below for its own boundary values, where the discrete-
+/// shells hinge energy relaxes below it by up to 16% and depends on the edges' directions (bench/RESULTS.md). On a
+/// boundary side the slope is free, eliminated per triangle (the moment normal to a free edge vanishes).
+struct TriangleCurvature {
+  std::vector<Index> offsets{0};          ///< triangle t's weights are [offsets[t], offsets[t + 1])
+  std::vector<Index> vertices;
+  std::vector<Eigen::Vector3d> weights;   ///< (S_xx, S_xy, S_yy) per unit w of that vertex
+  std::vector<double> area;               ///< material area of each triangle
+  Index fallback_edges = 0;               ///< interior edges without a well-posed 6-point fit (bisector slope)
+};
+TriangleCurvature recovered_curvature(const mesh::TriMesh& mesh, const mesh::Topology& topology);
+
+/// Consistent quadratic bending: E = k_b/2 Σ_T A_T |D²x|²_T, |D²x|² = Σ_c (S_xx² + 2 S_xy² + S_yy²) with S_T of each
+/// coordinate c of x (TriangleCurvature). For an isometric deformation of the flat material state D²x = II n, so E
+/// is the Kirchhoff bending energy k_b/2 ∫ |II|² dA for any rotation, not only small deflections (the idea of Bergou
+/// et al. 2006), while the discretization is exact on quadratic surfaces and passes the patch test on every mesh.
+/// E = ½ Σ_c x_cᵀ K x_c with one constant scalar matrix K; its Hessian K ⊗ I₃ is positive semi-definite.
+class IsometricBending final : public Term {
+ public:
+  IsometricBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
+  std::string name() const override { return "bending_quadratic"; }
+  double value(const VecX& x) const override;
+  void add_gradient(const VecX& x, VecX& g) const override;
+  void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const override;
+  void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override;
+  void bind(const linalg::BlockMatrix3& pattern) override;
+  /// K, symmetric, both triangles stored.
+  const Eigen::SparseMatrix<double, Eigen::RowMajor>& matrix() const { return m_K; }
+
+ private:
+  Eigen::SparseMatrix<double, Eigen::RowMajor> m_K;
+  std::vector<Index> m_slots;  ///< block of each stored entry of K
+};
+
 /// The quadratic (isometric) bending model of Bergou et al. 2006: E = k_b/(2(Ā1 + Ā2)) |Σ_i K_i x_i|² with the
 /// cotangent weights K = (c03 + c04, c01 + c02, −c01 − c03, −c02 − c04) of the rest hinge. Its Hessian is
 /// constant and positive semi-definite; for small angles it agrees with HingeBending.
@@ -56,5 +100,10 @@ class QuadraticBending final : public ElementTerm<4> {
   std::vector<Eigen::Vector4d> m_k;
   std::vector<double> m_weight;
 };
+
+/// The bending term of a material's model (none for BendingModel::None). The Projective Dynamics form needs a
+/// constant matrix: it takes the quadratic model for the hinge, whose matrix changes with x.
+std::unique_ptr<Term> make_bending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material,
+                                   bool projective);
 
 }  // namespace mgcloth::physics

@@ -6,6 +6,7 @@ std::string to_string(BendingModel m) {
   switch (m) {
     case BendingModel::Hinge: return "hinge";
     case BendingModel::Quadratic: return "quadratic";
+    case BendingModel::QuadraticBergou: return "quadratic-bergou";
     default: return "none";
   }
 }

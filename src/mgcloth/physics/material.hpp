@@ -4,7 +4,10 @@
 namespace mgcloth::physics {
 
 enum class MembraneModel { StVK, MassSpring };
-enum class BendingModel { Hinge, Quadratic, None };
+/// Hinge: discrete shells (dihedral angles); Quadratic: the consistent isometric model (IsometricBending);
+/// QuadraticBergou: Bergou et al. 2006's per-hinge quadratic form. bench/RESULTS.md measures each one's realized
+/// rigidity per mesh and direction.
+enum class BendingModel { Hinge, Quadratic, QuadraticBergou, None };
 
 /// Cloth material in SI units. Defaults: a medium-weight plain-woven cotton (about 150 g/m²): in-plane
 /// stiffness E·t = 500 N/m, bending rigidity 5e-6 N·m (≈ 0.05 gf·cm²/cm in Kawabata units).

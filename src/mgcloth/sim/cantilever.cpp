@@ -8,6 +8,7 @@
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/membrane.hpp>
+#include <mgcloth/linalg/cholmod_solver.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/solvers/newton.hpp>
 
@@ -54,6 +55,44 @@ double interpolate(const std::vector<double>& z, double L, double s) {
   const int i = std::min(kSteps - 1, static_cast<int>(p));
   const double t = p - i;
   return (1 - t) * z[i] + t * z[i + 1];
+}
+// The triangles whose material centroid passes `keep`, with the vertices they use renumbered in order. Vertices
+// where the cut left two triangle fans touching at one point carry more than two boundary edges: the triangles there
+// are dropped until the strip is a manifold disc.
+template <class Keep>
+mesh::TriMesh keep_triangles(const Mat2X& u, const std::vector<Tri>& tris, Keep&& keep) {
+  std::vector<Tri> kept;
+  for (const Tri& t : tris)
+    if (keep(Vec2((u.col(t[0]) + u.col(t[1]) + u.col(t[2])) / 3.0))) kept.push_back(t);
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::map<std::pair<Index, Index>, int> count;
+    for (const Tri& t : kept)
+      for (int k = 0; k < 3; ++k) ++count[std::minmax(t[k], t[(k + 1) % 3])];
+    std::map<Index, int> boundary_edges;
+    for (const auto& [e, n] : count)
+      if (n == 1) ++boundary_edges[e.first], ++boundary_edges[e.second];
+    std::vector<Tri> next;
+    for (const Tri& t : kept) {
+      const bool pinched = boundary_edges[t[0]] > 2 || boundary_edges[t[1]] > 2 || boundary_edges[t[2]] > 2;
+      if (pinched) changed = true;
+      else next.push_back(t);
+    }
+    kept.swap(next);
+  }
+  std::vector<Index> id(u.cols(), -1);
+  Index n = 0;
+  for (Tri& t : kept)
+    for (Index& v : t) {
+      if (id[v] < 0) id[v] = n++;
+      v = id[v];
+    }
+  mesh::TriMesh out;
+  out.u.resize(2, n);
+  for (Index i = 0; i < u.cols(); ++i)
+    if (id[i] >= 0) out.u.col(id[i]) = u.col(i);
+  out.tris = std::move(kept);
+  return out;
 }
 }  // namespace
 
@@ -119,40 +158,9 @@ Strip make_strip(bool unstructured, double angle_deg, Index vertices, double len
       const Vec2 d = big.u.col(i) - centre;
       u.col(i) = strip_centre + Vec2(c * d.x() + sn * d.y(), -sn * d.x() + c * d.y());
     }
-    std::vector<Tri> kept;
-    for (const Tri& t : big.tris) {
-      const Vec2 m = (u.col(t[0]) + u.col(t[1]) + u.col(t[2])) / 3.0;
-      if (m.x() >= 0 && m.x() <= length && m.y() >= 0 && m.y() <= width) kept.push_back(t);
-    }
-    // Vertices where the cut left two triangle fans touching at one point carry more than two boundary edges: drop
-    // the triangles there until the strip is a manifold disc.
-    for (bool changed = true; changed;) {
-      changed = false;
-      std::map<std::pair<Index, Index>, int> count;
-      for (const Tri& t : kept)
-        for (int k = 0; k < 3; ++k) ++count[std::minmax(t[k], t[(k + 1) % 3])];
-      std::map<Index, int> boundary_edges;
-      for (const auto& [e, n] : count)
-        if (n == 1) ++boundary_edges[e.first], ++boundary_edges[e.second];
-      std::vector<Tri> next;
-      for (const Tri& t : kept) {
-        const bool pinched = boundary_edges[t[0]] > 2 || boundary_edges[t[1]] > 2 || boundary_edges[t[2]] > 2;
-        if (pinched) changed = true;
-        else next.push_back(t);
-      }
-      kept.swap(next);
-    }
-    std::vector<Index> id(big.u.cols(), -1);
-    Index n = 0;
-    for (Tri& t : kept)
-      for (Index& v : t) {
-        if (id[v] < 0) id[v] = n++;
-        v = id[v];
-      }
-    out.mesh.u.resize(2, n);
-    for (Index i = 0; i < big.u.cols(); ++i)
-      if (id[i] >= 0) out.mesh.u.col(id[i]) = u.col(i);
-    out.mesh.tris = std::move(kept);
+    out.mesh = keep_triangles(u, big.tris, [&](const Vec2& m) {
+      return m.x() >= 0 && m.x() <= length && m.y() >= 0 && m.y() <= width;
+    });
   }
   out.mesh.x.resize(3, out.mesh.u.cols());
   out.mesh.x.topRows(2) = out.mesh.u;
@@ -171,17 +179,16 @@ Mat3X hang_strip(const Strip& strip, const physics::Material& material, double c
   physics::Objective obj(n);
   obj.add(std::make_unique<physics::GravityTerm>(mass, Vec3(0, 0, -9.81)));
   obj.add(std::make_unique<physics::StVKMembrane>(m, material));
-  if (material.bending == physics::BendingModel::Quadratic)
-    obj.add(std::make_unique<physics::QuadraticBending>(m, topo, material));
-  else
-    obj.add(std::make_unique<physics::HingeBending>(m, topo, material));
+  if (auto bending = physics::make_bending(m, topo, material, false)) obj.add(std::move(bending));
   std::vector<Index> pinned;
   std::vector<Vec3> targets;
   for (Index i = 0; i < n; ++i)
     if (m.u(0, i) <= clamp) pinned.push_back(i), targets.push_back(m.x.col(i));
   if (pinned.empty()) throw Error("hang_strip: no vertex in the clamp");
-  // Stiff enough that the clamp moves ~1e-9 m under the strip's whole weight.
-  const double k = 1e9 * material.areal_density() * 9.81 * strip.length * strip.width / pinned.size();
+  // Stiff enough that the clamp does not turn: the pins hold the bending moment at the clamp line as forces ~M/h on
+  // vertices h apart, and at 1e9 x the weight (the clamp moving ~1e-9 m) that turning softened strips by 3-8% at
+  // 12,000 vertices or L/c = 0.5.
+  const double k = 1e13 * material.areal_density() * 9.81 * strip.length * strip.width / pinned.size();
   auto& pins = obj.add(std::make_unique<physics::AttachmentTerm>(pinned, std::vector<double>(pinned.size(), k), n));
   pins.set_targets(targets);
   obj.finalize();
@@ -197,24 +204,101 @@ Mat3X hang_strip(const Strip& strip, const physics::Material& material, double c
   if (!rep.converged && rep.status != "stalled" && rep.status != "stagnated")
     throw Error(fmt::format("hang_strip: Newton ended {} after {} iterations, relative gradient {:.3e}", rep.status,
                             rep.iterations, rep.grad_norm / rep.initial_grad_norm));
+  // The line search stops where the energy's changes fall below its round-off (the membrane is ~1e8 times stiffer
+  // than the bending it holds up), which at 12,000 vertices left the gradient at 1e-5 of gravity's and the drop a few
+  // percent off. Full Newton steps judged by the gradient's norm go on to the gradient's own floor.
+  linalg::BlockMatrix3 H = obj.hessian_pattern();
+  linalg::CholmodSolver cholmod;
+  VecX g(x.size()), dx(x.size());
+  obj.gradient(x, g);
+  for (int it = 0; it < 20; ++it) {
+    obj.hessian(x, H, false);
+    if (!cholmod.factorize(H)) break;
+    cholmod.solve(g, dx);
+    const VecX trial = x - dx;
+    VecX gt(x.size());
+    obj.gradient(trial, gt);
+    if (!(gt.norm() < 0.5 * g.norm())) break;
+    x = trial;
+    g = gt;
+  }
   return x.reshaped(3, n);
 }
 
-CantileverResult cantilever(const Strip& strip, const physics::Material& material, double clamp, double tip) {
-  const Mat3X x = hang_strip(strip, material, clamp);
-  const double L = strip.length - clamp, w = material.areal_density() * 9.81;
-  std::vector<double> s;
+Strip truncate_strip(const Strip& strip, double length) {
+  Strip out;
+  out.length = length;
+  out.width = strip.width;
+  out.mesh = keep_triangles(strip.mesh.u, strip.mesh.tris, [&](const Vec2& m) { return m.x() <= length; });
+  out.mesh.x.resize(3, out.mesh.u.cols());
+  out.mesh.x.topRows(2) = out.mesh.u;
+  out.mesh.x.row(2).setZero();
+  mesh::validate(out.mesh, "truncated strip");
+  return out;
+}
+
+namespace {
+// Mean drop of the vertices within `tip` of the strip's free end, and their arc lengths from s = 0.
+double tip_drop(const Strip& strip, const Mat3X& x, double tip, std::vector<double>& s) {
+  s.clear();
   double drop = 0.0;
   for (Index i = 0; i < strip.mesh.u.cols(); ++i)
     if (strip.mesh.u(0, i) >= strip.length - tip) {
-      s.push_back(strip.mesh.u(0, i) - clamp);
+      s.push_back(strip.mesh.u(0, i));
       drop += -x(2, i);
     }
+  return drop / static_cast<double>(s.size());
+}
+
+double mean_edge_length(const mesh::TriMesh& m) {
+  double sum = 0.0;
+  for (const Tri& t : m.tris)
+    for (int k = 0; k < 3; ++k) sum += (m.u.col(t[(k + 1) % 3]) - m.u.col(t[k])).norm();
+  return sum / (3.0 * static_cast<double>(m.tris.size()));
+}
+
+// The elastica's rigidity for a drop when the strip is clamped at s = at: arc lengths are measured from there.
+double rigidity_clamped_at(double at, double drop, double w, double length, std::vector<double> s) {
+  for (double& v : s) v = std::max(0.0, v - at);
+  return elastica_rigidity(drop, w, length - at, s);
+}
+}  // namespace
+
+CantileverResult cantilever(const Strip& strip, const physics::Material& material, double clamp, double tip) {
+  const double w = material.areal_density() * 9.81;
+  const Strip half = truncate_strip(strip, clamp + 0.5 * (strip.length - clamp));
+  std::vector<double> s_long, s_short;
+  const double drop_long = tip_drop(strip, hang_strip(strip, material, clamp), tip, s_long);
+  const double drop_short = tip_drop(half, hang_strip(half, material, clamp), tip, s_short);
+
   CantileverResult r;
-  r.drop = drop / static_cast<double>(s.size());
-  const auto z = elastica_deflection(material.bending_stiffness, w, L, s);
-  for (double v : z) r.elastica_drop += v / static_cast<double>(z.size());
-  r.rigidity = elastica_rigidity(r.drop, w, L, s);
+  r.edge_length = mean_edge_length(strip.mesh);
+  r.drop = drop_long;
+  {
+    std::vector<double> s = s_long;
+    for (double& v : s) v -= clamp;
+    for (double v : elastica_deflection(material.bending_stiffness, w, strip.length - clamp, s))
+      r.elastica_drop += v / static_cast<double>(s.size());
+  }
+  r.rigidity_at_pins = rigidity_clamped_at(clamp, drop_long, w, strip.length, s_long);
+  // Where the clamp acts is a boundary effect of the discretization, within about an edge of the last pinned
+  // vertices; a rigidity is a property of the bulk. The two overhangs share the clamp's mesh, so one clamp position
+  // c* explains both drops with one B: B_long(c*) = B_short(c*). The short overhang's B falls faster as c* grows.
+  const auto mismatch = [&](double at) {
+    return rigidity_clamped_at(at, drop_short, w, half.length, s_short) -
+           rigidity_clamped_at(at, drop_long, w, strip.length, s_long);
+  };
+  double lo = clamp - 3.0 * r.edge_length, hi = clamp + 3.0 * r.edge_length;
+  if (mismatch(lo) < 0.0 || mismatch(hi) > 0.0)
+    throw Error(fmt::format("cantilever: no clamp position within 3 edge lengths ({:.3g} m) of the pins explains both "
+                            "overhangs' drops ({:.6g} m and {:.6g} m)", r.edge_length, drop_long, drop_short));
+  for (int it = 0; it < 60 && hi - lo > 1e-6 * r.edge_length; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (mismatch(mid) > 0.0 ? lo : hi) = mid;
+  }
+  const double at = 0.5 * (lo + hi);
+  r.clamp_offset = at - clamp;
+  r.rigidity = rigidity_clamped_at(at, drop_long, w, strip.length, s_long);
   return r;
 }
 

@@ -109,13 +109,9 @@ ClothBody::LevelObjective ClothBody::build_objective(const mesh::TriMesh& mesh, 
     obj.add(std::make_unique<physics::StVKMembrane>(mesh, m_material));
   else
     obj.add(std::make_unique<physics::MassSpringMembrane>(mesh, topology, m_material));
-  // Hinge bending is not a PD constraint (its matrix changes with x); the quadratic model is the PD bending
-  // constraint of Bouaziz et al. 2014 for a flat rest state, so the PD form uses it for either model.
-  if (m_material.bending == physics::BendingModel::Quadratic ||
-      (m_projective && m_material.bending == physics::BendingModel::Hinge))
-    obj.add(std::make_unique<physics::QuadraticBending>(mesh, topology, m_material));
-  else if (m_material.bending == physics::BendingModel::Hinge)
-    obj.add(std::make_unique<physics::HingeBending>(mesh, topology, m_material));
+  // Hinge bending is not a PD constraint (its matrix changes with x); a quadratic model is the PD bending
+  // constraint of Bouaziz et al. 2014 for a flat rest state, so the PD form takes the quadratic one for the hinge.
+  if (auto bending = physics::make_bending(mesh, topology, m_material, m_projective)) obj.add(std::move(bending));
 
   if (!topology.stitch_groups.empty())
     obj.add(std::make_unique<physics::SeamTerm>(topology.stitch_groups, m_seam_stiffness, n));

@@ -28,10 +28,12 @@ physics::Material parse_material(JsonReader r, std::string& preset) {
   m.bending_stiffness = r.number("bending_stiffness", m.bending_stiffness, 0.0, 1e3);
   const auto membrane = r.choice("membrane", physics::to_string(m.membrane), {"stvk", "mass_spring"});
   m.membrane = membrane == "stvk" ? physics::MembraneModel::StVK : physics::MembraneModel::MassSpring;
-  const auto bending = r.choice("bending", physics::to_string(m.bending), {"hinge", "quadratic", "none"});
-  m.bending = bending == "hinge" ? physics::BendingModel::Hinge
-              : bending == "quadratic" ? physics::BendingModel::Quadratic
-                                       : physics::BendingModel::None;
+  const auto bending =
+      r.choice("bending", physics::to_string(m.bending), {"hinge", "quadratic", "quadratic-bergou", "none"});
+  m.bending = bending == "hinge"              ? physics::BendingModel::Hinge
+              : bending == "quadratic"        ? physics::BendingModel::Quadratic
+              : bending == "quadratic-bergou" ? physics::BendingModel::QuadraticBergou
+                                              : physics::BendingModel::None;
   m.pd_strain_min = r.number("pd_strain_min", m.pd_strain_min, 0.0, 1.0);
   m.pd_strain_max = r.number("pd_strain_max", m.pd_strain_max, 1.0, 100.0);
   r.finish();
