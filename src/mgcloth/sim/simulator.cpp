@@ -277,9 +277,11 @@ void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, cons
   m_step = step;
 }
 
-std::string Simulator::solver_state(size_t /*body*/) const {
-  // No solver keeps state across steps that the checkpoint must carry yet.
-  return {};
+std::string Simulator::solver_state(size_t body) const {
+  const size_t cloths = m_cloths.size();
+  if (body >= cloths + m_shells.size())
+    throw_error("solver state of body {}, the scene has {} cloths and {} shells", body, cloths, m_shells.size());
+  return (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->carried_state();
 }
 
 void Simulator::set_solver_state(size_t body, std::string_view state) {
@@ -287,11 +289,12 @@ void Simulator::set_solver_state(size_t body, std::string_view state) {
   if (body >= cloths + m_shells.size())
     throw InputError(fmt::format("solver state for body {}, the scene has {} cloths and {} shells", body, cloths,
                                  m_shells.size()));
-  if (!state.empty())
-    throw InputError(fmt::format("{} \"{}\": {} bytes of solver state, which solver \"{}\" does not keep",
-                                 body < cloths ? "cloth" : "shell",
-                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), state.size(),
-                                 (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->name()));
+  try {
+    (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->restore_carried_state(state);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{} \"{}\": {}", body < cloths ? "cloth" : "shell",
+                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), e.what()));
+  }
 }
 
 }  // namespace mgcloth::sim
