@@ -1,4 +1,5 @@
 #include <mgcloth/core/log.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/simulator.hpp>
@@ -71,9 +72,11 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
     m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
-      m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
-                                                     m_solvers.back()->projective(),
-                                                     i < meshes.size() ? meshes[i].get() : nullptr));
+      building([&] { return fmt::format("cloth \"{}\" ({}: cloths[{}])", c.name, m_scene.file, i); }, [&] {
+        m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
+                                                       m_solvers.back()->projective(),
+                                                       i < meshes.size() ? meshes[i].get() : nullptr));
+      });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
@@ -83,7 +86,8 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     const auto& spec = m_scene.shells[i];
     m_shell_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
-      m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file));
+      building([&] { return fmt::format("shell \"{}\" ({}: shells[{}], level {})", spec.name, m_scene.file, i, spec.level); },
+               [&] { m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file)); });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: shells[{}] (\"{}\"): {}", m_scene.file, i, spec.name, e.what()));
     }
@@ -197,7 +201,12 @@ std::vector<StepStats> Simulator::step() {
     solvers::Problem problem = prepare_problem(c, x);
     StepStats s;
     try {
-      s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
+      s.report = building(
+          [&] {
+            return fmt::format("the solve of step {} of cloth \"{}\" ({} vertices, solver {}: its matrices and levels)",
+                               m_step + 1, body.name(), body.mesh().num_vertices(), m_solvers[c]->name());
+          },
+          [&] { return m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
     } catch (const SolveError& e) {
       throw SolveError(fmt::format("{}: cloth \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
                                    m_frame + 1, m_step + 1, t + h, e.what()));
@@ -218,7 +227,12 @@ std::vector<StepStats> Simulator::step() {
     VecX x;
     solvers::Problem problem = prepare_shell_problem(i, x, &s.load_factor);
     try {
-      s.report = m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
+      s.report = building(
+          [&] {
+            return fmt::format("the solve of step {} of shell \"{}\" ({} control points, solver {}: its matrices and "
+                               "levels)", m_step + 1, body.name(), body.x().size() / 3, m_shell_solvers[i]->name());
+          },
+          [&] { return m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
     } catch (const SolveError& e) {
       throw SolveError(fmt::format("{}: shell \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
                                    m_frame + 1, m_step + 1, t + h, e.what()));
