@@ -26,7 +26,7 @@ void check_spec(const RectangleSpec& spec) {
     throw_input_error("rectangle: width and height must be positive and finite (got {} x {})", spec.width,
                       spec.height);
   if (spec.target_vertices < 4 || spec.target_vertices > kMaxGeneratedVertices)
-    throw_input_error("rectangle: target_vertices must be in [4, {}] (got {})", kMaxGeneratedVertices,
+    throw_input_error("rectangle: target_vertices must be at least 4 and at most {} (got {})", kMaxGeneratedVertices,
                       spec.target_vertices);
   if (!spec.unstructured && !spec.holes.empty())
     throw_input_error("rectangle: holes need an unstructured mesh (set unstructured = true)");
@@ -357,7 +357,8 @@ TriMesh make_tube(const TubeSpec& spec) {
   if (!(spec.circumference > 0.0) || !(spec.height > 0.0) || !std::isfinite(spec.circumference) || !std::isfinite(spec.height))
     throw_input_error("tube: circumference and height must be positive (got {} and {})", spec.circumference, spec.height);
   if (spec.target_vertices < 8 || spec.target_vertices > kMaxGeneratedVertices)
-    throw_input_error("tube: target_vertices must be in [8, {}] (got {})", kMaxGeneratedVertices, spec.target_vertices);
+    throw_input_error("tube: target_vertices must be at least 8 and at most {} (got {})", kMaxGeneratedVertices,
+                      spec.target_vertices);
   RectangleSpec panel;
   panel.width = 0.5 * spec.circumference;
   panel.height = spec.height;
