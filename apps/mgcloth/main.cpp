@@ -3,6 +3,7 @@
 
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/log.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 
 #include <CLI/CLI.hpp>
 
@@ -32,6 +33,11 @@ int main(int argc, char** argv) {
     return mgcloth::cli::dispatch(app);
   } catch (const mgcloth::Error& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    // Only where no builder on the way named what ran out (mgcloth::OutOfMemory, caught above).
+    std::fprintf(stderr, "mgcloth: error: out of memory (in mgcloth %s)\n",
+                 app.get_subcommands().empty() ? "" : app.get_subcommands().front()->get_name().c_str());
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());

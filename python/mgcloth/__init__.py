@@ -12,8 +12,8 @@ asked, into the same output folder. Positions and velocities come back as read-o
         sim.step()
     sim.x  # (2500, 3) positions
 
-Errors raise mgcloth.InputError (also a ValueError), mgcloth.SolveError or mgcloth.Error (a RuntimeError) with
-the messages the CLI prints.
+Errors raise mgcloth.InputError (also a ValueError), mgcloth.SolveError, mgcloth.OutOfMemoryError (also a
+MemoryError) or mgcloth.Error (a RuntimeError) with the messages the CLI prints.
 """
 
 import os as _os
@@ -25,6 +25,7 @@ from ._mgcloth import (
     Error,
     InputError,
     Mesh,
+    OutOfMemoryError,
     SolveError,
     StepStats,
     __version__,
@@ -36,8 +37,8 @@ from ._mgcloth import (
 )
 
 __all__ = [
-    "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "Plane", "Simulation",
-    "SolveError", "Sphere", "StepStats", "convergence", "grid", "load_scene", "material_presets", "num_threads",
+    "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "OutOfMemoryError", "Plane",
+    "Simulation", "SolveError", "Sphere", "StepStats", "convergence", "grid", "load_scene", "material_presets", "num_threads",
     "set_log_level", "solver_names",
 ]
 

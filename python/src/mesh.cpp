@@ -159,11 +159,16 @@ void bind_mesh(py::module_& m) {
 
   m.def(
       "grid",
-      [](double width, double height, Index vertices, bool unstructured, std::uint64_t seed) {
+      [](double width, double height, long long vertices, bool unstructured, std::uint64_t seed) {
+        // The scene's limits (a billion vertices would allocate until the system killed the process).
+        if (vertices < 4 || vertices > mesh::kMaxGeneratedVertices)
+          throw_input_error("grid: vertices must be in [4, {}], got {}", mesh::kMaxGeneratedVertices, vertices);
+        if (!(width > 0.0 && std::isfinite(width)) || !(height > 0.0 && std::isfinite(height)))
+          throw_input_error("grid: width and height must be positive and finite, got {} and {}", width, height);
         mesh::RectangleSpec spec;
         spec.width = width;
         spec.height = height;
-        spec.target_vertices = vertices;
+        spec.target_vertices = static_cast<Index>(vertices);
         spec.unstructured = unstructured;
         spec.seed = seed;
         return arrays_of(mesh::make_rectangle(spec));
@@ -173,7 +178,7 @@ void bind_mesh(py::module_& m) {
       "A rectangular cloth [0, width] x [0, height] in the plane z = 0 with about `vertices` vertices, as the scene "
       "generator \"rectangle\" makes it (regular grid with alternating diagonals, or with unstructured=True a "
       "Poisson-disk triangulation). Returns (V, F): float64 positions (n, 3) and int32 triangles (m, 3); vertices are "
-      "numbered row by row from (0, 0).");
+      "numbered row by row from (0, 0). InputError (a ValueError) for vertices outside [4, 5000000], as in a scene.");
 }
 
 }  // namespace mgcloth::python

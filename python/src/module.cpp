@@ -1,6 +1,7 @@
 #include "bindings.hpp"
 
 #include <mgcloth/core/log.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/sim/scene.hpp>
 #include <mgcloth/solvers/factory.hpp>
@@ -89,7 +90,11 @@ void bind_errors(py::module_& m) {
   static py::handle solve_error = PyErr_NewExceptionWithDoc(
       "mgcloth.SolveError", "A solve that cannot continue: non-finite energy, a failed line search, a failed factorization.",
       error.ptr(), nullptr);
+  static py::handle out_of_memory = PyErr_NewExceptionWithDoc(
+      "mgcloth.OutOfMemoryError", "Memory ran out; the message says what was being built (also a MemoryError).",
+      py::make_tuple(error, py::handle(PyExc_MemoryError)).release().ptr(), nullptr);
   m.add_object("Error", error);
+  m.add_object("OutOfMemoryError", out_of_memory);
   m.add_object("InputError", input_error);
   m.add_object("SolveError", solve_error);
   py::register_exception_translator([](std::exception_ptr p) {
@@ -99,6 +104,10 @@ void bind_errors(py::module_& m) {
       PyErr_SetString(input_error.ptr(), e.what());
     } catch (const SolveError& e) {
       PyErr_SetString(solve_error.ptr(), e.what());
+    } catch (const OutOfMemory& e) {
+      PyErr_SetString(out_of_memory.ptr(), e.what());
+    } catch (const std::bad_alloc&) {
+      PyErr_SetString(out_of_memory.ptr(), "out of memory in mgcloth (where is not known: no builder named it)");
     } catch (const Error& e) {
       PyErr_SetString(error.ptr(), e.what());
     }

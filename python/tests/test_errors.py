@@ -1,5 +1,8 @@
 """Errors raise Python exceptions with the CLI's messages, naming the array, row or scene field at fault."""
 import json
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -106,3 +109,33 @@ def test_solver_that_cannot_work_on_the_cloth_fails_at_construction(small_grid):
     with pytest.raises(mgcloth.InputError, match=r'cloths\[0\] \("cloth0"\): solver rmtr needs a mesh hierarchy of at '
                                                  r'least two levels, but the cloth\'s 64 vertices'):
         mgcloth.Simulation({"solver": {"name": "rmtr"}}, cloths=[mgcloth.Cloth(V, F)])
+
+
+@pytest.mark.parametrize("vertices", [10**9, 10**12, 5_000_001, 3, -1])
+def test_grid_has_the_scenes_vertex_range(vertices):
+    # 10**9 used to allocate until the kernel killed the process.
+    with pytest.raises(mgcloth.InputError, match=rf"grid: vertices must be in \[4, 5000000\], got {vertices}"):
+        mgcloth.grid(1.0, 1.0, vertices)
+
+
+@pytest.mark.parametrize("width, height", [(0.0, 1.0), (1.0, -2.0), (float("nan"), 1.0), (1.0, float("inf"))])
+def test_grid_needs_a_positive_finite_size(width, height):
+    with pytest.raises(mgcloth.InputError, match=r"grid: width and height must be positive and finite"):
+        mgcloth.grid(width, height, 100)
+
+
+def test_out_of_memory_names_what_was_built():
+    assert issubclass(mgcloth.OutOfMemoryError, mgcloth.Error) and issubclass(mgcloth.OutOfMemoryError, MemoryError)
+    # In a child process whose address space may grow by 300 MB only: 5 million vertices need more.
+    code = textwrap.dedent("""
+        import resource
+        import mgcloth
+        size = int(next(l for l in open("/proc/self/status") if l.startswith("VmSize")).split()[1]) * 1024
+        resource.setrlimit(resource.RLIMIT_AS, (size + 300 * 2**20, resource.RLIM_INFINITY))
+        try:
+            mgcloth.grid(1.0, 1.0, 5_000_000)
+        except mgcloth.OutOfMemoryError as e:
+            print("raised:", e)
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert "raised: out of memory building a rectangle mesh of about 5000000 vertices" in r.stdout, r.stdout + r.stderr

@@ -200,6 +200,11 @@ TEST(Generators, RejectsBadSpecs) {
   spec = {};
   spec.target_vertices = 3;
   EXPECT_TRUE(throws_input_error([&] { make_rectangle(spec); }, {"target_vertices", "at least 4"}));
+  spec.target_vertices = 1'000'000'000;  // the generator's own limit, whoever calls it (it used to allocate on)
+  EXPECT_TRUE(throws_input_error([&] { make_rectangle(spec); }, {"target_vertices", "at most 5000000", "1000000000"}));
+  TubeSpec tube;
+  tube.target_vertices = 5'000'001;
+  EXPECT_TRUE(throws_input_error([&] { make_tube(tube); }, {"tube", "at most 5000000"}));
   spec = {};
   spec.holes = {{{0.5, 0.5}, 0.1}};
   EXPECT_TRUE(throws_input_error([&] { make_rectangle(spec); }, {"holes need an unstructured mesh"}));

@@ -75,6 +75,11 @@ class DeviceFmg {
   virtual void finish_step(const VecX& x_old, double h, VecX& x, VecX& v) = 0;
   /// "host" or the CUDA device's name.
   virtual std::string device() const = 0;
+  /// The Chebyshev spectral radius of every level's sweep, finest first: estimated on the first matrix and kept for
+  /// later solves, so a checkpoint holds them (empty before the first solve).
+  virtual std::vector<double> smoother_radii() const = 0;
+  /// Gives smoother_radii() back before the next minimize(); empty: estimate them afresh.
+  virtual void restore_smoother_radii(std::vector<double> radii) = 0;
 };
 
 enum class Backend { Cuda, Host };

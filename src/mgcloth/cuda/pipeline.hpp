@@ -33,6 +33,15 @@ class Pipeline final : public DeviceFmg {
       fail_input("fmg-cuda: coarse_solve must be \"device\", \"host\" or \"auto\" (got \"" + m_s.coarse_solve + "\")");
   }
   std::string device() const override { return B::device_name(); }
+  std::vector<double> smoother_radii() const override {
+    std::vector<double> out;
+    for (const Level& L : m_levels) out.push_back(L.rho);
+    return out;
+  }
+  void restore_smoother_radii(std::vector<double> radii) override {
+    for (Level& L : m_levels) L.rho = 0.0;
+    m_restore_radii = std::move(radii);
+  }
 
   // ---- Set-up --------------------------------------------------------------------------------------------------
 
@@ -671,6 +680,7 @@ class Pipeline final : public DeviceFmg {
   linalg::CholmodSolver m_coarse_solver;
   double m_rows_active = 0.0, m_rows_total = 0.0;
   double m_beta = 1.0;  ///< accepted step / model step of the last direction, to start the next line search (§4.2.3)
+  std::vector<double> m_restore_radii;  ///< restore_smoother_radii() for the next minimize(), after build()
   Profile m_prof;
   SpgemmComparison m_spgemm;
   typename B::Graph m_vcycle_graph;
@@ -688,6 +698,13 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     Timer t;
     build(objective, prolongations);
     ms.setup = t.ms();
+  }
+  if (!m_restore_radii.empty()) {
+    if (m_restore_radii.size() != m_levels.size())
+      fail_input("fmg-cuda: a solver state for " + std::to_string(m_restore_radii.size()) + " levels, the hierarchy has " +
+                 std::to_string(m_levels.size()));
+    for (size_t l = 0; l < m_levels.size(); ++l) m_levels[l].rho = m_restore_radii[l];
+    m_restore_radii.clear();
   }
   if (x_host.size() != 3 * m_n)
     fail("fmg-cuda: the start point has " + std::to_string(x_host.size()) + " entries, the objective " +

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/hierarchy/subdivision_hierarchy.hpp>
 
 #include <algorithm>
@@ -191,10 +192,12 @@ SubdivisionStep subdivide(const mesh::QuadMesh& coarse) {
 SubdivisionHierarchy::SubdivisionHierarchy(const mesh::QuadMesh& coarsest, int levels) {
   if (levels < 1) throw_input_error("subdivision hierarchy: needs at least 1 level (got {})", levels);
   m_meshes.push_back(coarsest);
-  for (int l = 1; l < levels; ++l) {
-    m_steps.push_back(subdivide(m_meshes.back()));
-    m_meshes.push_back(m_steps.back().fine);
-  }
+  for (int l = 1; l < levels; ++l)
+    building([&] { return fmt::format("subdivision level {} of {} (from {} quads)", l + 1, levels, m_meshes.back().num_faces()); },
+             [&] {
+               m_steps.push_back(subdivide(m_meshes.back()));
+               m_meshes.push_back(m_steps.back().fine);
+             });
 }
 
 }  // namespace mgcloth::hierarchy

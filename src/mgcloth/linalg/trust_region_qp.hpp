@@ -148,6 +148,9 @@ class Dogleg {
   int fallbacks() const { return m_fallbacks; }
   /// λ of the current Newton point (0 when H was positive definite).
   double shift() const { return m_shift; }
+  /// The shift an indefinite H's search starts from in the next prepare() (it starts a decade below the last
+  /// shift): a checkpoint's shift() given back, so that a resumed run factorizes as the uninterrupted one.
+  void set_start_shift(double shift) { m_shift = shift; }
   /// Symbolic analyses of the CHOLMOD solver (one per Hessian pattern).
   int analyses() const { return m_cholmod.analyses(); }
   /// ‖p_B‖ (‖p_B‖_M with a metric) of the current Newton point: the radius beyond which step() returns it.

@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/mesh/generators.hpp>
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -24,8 +25,9 @@ void check_spec(const RectangleSpec& spec) {
   if (!(spec.width > 0.0) || !std::isfinite(spec.width) || !(spec.height > 0.0) || !std::isfinite(spec.height))
     throw_input_error("rectangle: width and height must be positive and finite (got {} x {})", spec.width,
                       spec.height);
-  if (spec.target_vertices < 4)
-    throw_input_error("rectangle: target_vertices must be at least 4 (got {})", spec.target_vertices);
+  if (spec.target_vertices < 4 || spec.target_vertices > kMaxGeneratedVertices)
+    throw_input_error("rectangle: target_vertices must be at least 4 and at most {} (got {})", kMaxGeneratedVertices,
+                      spec.target_vertices);
   if (!spec.unstructured && !spec.holes.empty())
     throw_input_error("rectangle: holes need an unstructured mesh (set unstructured = true)");
   for (std::size_t i = 0; i < spec.holes.size(); ++i) {
@@ -343,16 +345,20 @@ TriMesh make_unstructured(const RectangleSpec& spec) {
 
 TriMesh make_rectangle(const RectangleSpec& spec) {
   check_spec(spec);
-  TriMesh mesh = spec.unstructured ? make_unstructured(spec) : make_regular(spec);
-  mesh.x.setZero(3, mesh.u.cols());
-  mesh.x.topRows<2>() = mesh.u;
-  return mesh;
+  return building([&] { return fmt::format("a rectangle mesh of about {} vertices", spec.target_vertices); }, [&] {
+    TriMesh mesh = spec.unstructured ? make_unstructured(spec) : make_regular(spec);
+    mesh.x.setZero(3, mesh.u.cols());
+    mesh.x.topRows<2>() = mesh.u;
+    return mesh;
+  });
 }
 
 TriMesh make_tube(const TubeSpec& spec) {
   if (!(spec.circumference > 0.0) || !(spec.height > 0.0) || !std::isfinite(spec.circumference) || !std::isfinite(spec.height))
     throw_input_error("tube: circumference and height must be positive (got {} and {})", spec.circumference, spec.height);
-  if (spec.target_vertices < 8) throw_input_error("tube: needs at least 8 vertices (got {})", spec.target_vertices);
+  if (spec.target_vertices < 8 || spec.target_vertices > kMaxGeneratedVertices)
+    throw_input_error("tube: target_vertices must be at least 8 and at most {} (got {})", kMaxGeneratedVertices,
+                      spec.target_vertices);
   RectangleSpec panel;
   panel.width = 0.5 * spec.circumference;
   panel.height = spec.height;

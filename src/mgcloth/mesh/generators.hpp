@@ -5,6 +5,10 @@
 
 namespace mgcloth::mesh {
 
+/// The generators' largest vertex count (a rectangle needs at least 4, a tube 8): what the scene format and the
+/// Python module accept, checked there under their own names and by make_rectangle and make_tube.
+inline constexpr Index kMaxGeneratedVertices = 5'000'000;
+
 struct CircleHole {
   Vec2 center{0.5, 0.5};
   double radius = 0.1;
@@ -32,8 +36,8 @@ struct RectangleSpec {
 /// from 4 to 9. Vertex counts: within 3% of the target from 100 vertices up and within 1% from 1000 up
 /// (unstructured; the regular grid within 4.5% from 100 up and 2% from 1000 up); a small hole's graded ring adds
 /// vertices beyond that. Vertices are numbered row by row; triangles are CCW in material space. Throws InputError
-/// for a bad spec (non-positive size, target_vertices < 4, holes with a regular grid, holes not strictly inside
-/// the rectangle or overlapping each other).
+/// for a bad spec (non-positive size, target_vertices outside [4, kMaxGeneratedVertices], holes with a regular grid, holes not strictly inside the rectangle or overlapping each other) and OutOfMemory naming the
+/// mesh when memory runs out.
 TriMesh make_rectangle(const RectangleSpec& spec);
 
 /// A two-panel garment: a tube (a skirt or sleeve) sewn from a front and a back panel along both side seams.

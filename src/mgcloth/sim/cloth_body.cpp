@@ -1,4 +1,5 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/membrane.hpp>
@@ -135,7 +136,9 @@ const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::Hierar
   if (!m_hierarchy) {
     hierarchy::HierarchyParams p = params;
     p.keep.insert(p.keep.end(), m_pin_vertices.begin(), m_pin_vertices.end());  // pins are exact on every level
-    m_hierarchy = std::make_unique<hierarchy::TriangleHierarchy>(hierarchy::build_triangle_hierarchy(m_mesh, p));
+    m_hierarchy = building(
+        [&] { return fmt::format("the multigrid hierarchy of cloth \"{}\" ({} vertices)", m_name, m_mesh.num_vertices()); },
+        [&] { return std::make_unique<hierarchy::TriangleHierarchy>(hierarchy::build_triangle_hierarchy(m_mesh, p)); });
   }
   return *m_hierarchy;
 }

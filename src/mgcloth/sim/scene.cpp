@@ -53,7 +53,7 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
       auto& tube = s.tube;
       tube.circumference = r.number("circumference", tube.circumference, 1e-4, 1e3);
       tube.height = r.number("height", tube.height, 1e-4, 1e3);
-      tube.target_vertices = r.integer("vertices", tube.target_vertices, 8, 5'000'000);
+      tube.target_vertices = r.integer("vertices", tube.target_vertices, 8, mesh::kMaxGeneratedVertices);
       tube.unstructured = r.boolean("unstructured", tube.unstructured);
       tube.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<int>(tube.seed), 0));
       r.finish();
@@ -62,7 +62,7 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
     auto& rect = s.rectangle;
     rect.width = r.number("width", rect.width, 1e-4, 1e3);
     rect.height = r.number("height", rect.height, 1e-4, 1e3);
-    rect.target_vertices = r.integer("vertices", rect.target_vertices, 4, 5'000'000);
+    rect.target_vertices = r.integer("vertices", rect.target_vertices, 4, mesh::kMaxGeneratedVertices);
     rect.unstructured = r.boolean("unstructured", rect.unstructured);
     rect.seed = static_cast<std::uint64_t>(r.integer("seed", static_cast<int>(rect.seed), 0));
     for (auto h : r.objects("holes")) {

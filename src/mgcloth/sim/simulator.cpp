@@ -1,4 +1,5 @@
 #include <mgcloth/core/log.hpp>
+#include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/simulator.hpp>
@@ -71,9 +72,11 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
     m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
-      m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
-                                                     m_solvers.back()->projective(),
-                                                     i < meshes.size() ? meshes[i].get() : nullptr));
+      building([&] { return fmt::format("cloth \"{}\" ({}: cloths[{}])", c.name, m_scene.file, i); }, [&] {
+        m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
+                                                       m_solvers.back()->projective(),
+                                                       i < meshes.size() ? meshes[i].get() : nullptr));
+      });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
@@ -83,7 +86,8 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     const auto& spec = m_scene.shells[i];
     m_shell_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
-      m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file));
+      building([&] { return fmt::format("shell \"{}\" ({}: shells[{}], level {})", spec.name, m_scene.file, i, spec.level); },
+               [&] { m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file)); });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: shells[{}] (\"{}\"): {}", m_scene.file, i, spec.name, e.what()));
     }
@@ -197,7 +201,12 @@ std::vector<StepStats> Simulator::step() {
     solvers::Problem problem = prepare_problem(c, x);
     StepStats s;
     try {
-      s.report = m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
+      s.report = building(
+          [&] {
+            return fmt::format("the solve of step {} of cloth \"{}\" ({} vertices, solver {}: its matrices and levels)",
+                               m_step + 1, body.name(), body.mesh().num_vertices(), m_solvers[c]->name());
+          },
+          [&] { return m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
     } catch (const SolveError& e) {
       throw SolveError(fmt::format("{}: cloth \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
                                    m_frame + 1, m_step + 1, t + h, e.what()));
@@ -218,7 +227,12 @@ std::vector<StepStats> Simulator::step() {
     VecX x;
     solvers::Problem problem = prepare_shell_problem(i, x, &s.load_factor);
     try {
-      s.report = m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr);
+      s.report = building(
+          [&] {
+            return fmt::format("the solve of step {} of shell \"{}\" ({} control points, solver {}: its matrices and "
+                               "levels)", m_step + 1, body.name(), body.x().size() / 3, m_shell_solvers[i]->name());
+          },
+          [&] { return m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
     } catch (const SolveError& e) {
       throw SolveError(fmt::format("{}: shell \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
                                    m_frame + 1, m_step + 1, t + h, e.what()));
@@ -277,9 +291,11 @@ void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, cons
   m_step = step;
 }
 
-std::string Simulator::solver_state(size_t /*body*/) const {
-  // No solver keeps state across steps that the checkpoint must carry yet.
-  return {};
+std::string Simulator::solver_state(size_t body) const {
+  const size_t cloths = m_cloths.size();
+  if (body >= cloths + m_shells.size())
+    throw_error("solver state of body {}, the scene has {} cloths and {} shells", body, cloths, m_shells.size());
+  return (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->carried_state();
 }
 
 void Simulator::set_solver_state(size_t body, std::string_view state) {
@@ -287,11 +303,12 @@ void Simulator::set_solver_state(size_t body, std::string_view state) {
   if (body >= cloths + m_shells.size())
     throw InputError(fmt::format("solver state for body {}, the scene has {} cloths and {} shells", body, cloths,
                                  m_shells.size()));
-  if (!state.empty())
-    throw InputError(fmt::format("{} \"{}\": {} bytes of solver state, which solver \"{}\" does not keep",
-                                 body < cloths ? "cloth" : "shell",
-                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), state.size(),
-                                 (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->name()));
+  try {
+    (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->restore_carried_state(state);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{} \"{}\": {}", body < cloths ? "cloth" : "shell",
+                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), e.what()));
+  }
 }
 
 }  // namespace mgcloth::sim

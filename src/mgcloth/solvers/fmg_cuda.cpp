@@ -6,6 +6,23 @@ namespace mgcloth::solvers {
 FmgCuda::FmgCuda(cuda::Backend backend, cuda::FmgSettings settings, std::string name)
     : m_name(std::move(name)), m_impl(cuda::make_device_fmg(backend, settings)) {}
 
+std::string FmgCuda::carried_state() const {
+  const std::vector<double> radii = m_impl->smoother_radii();
+  return radii.empty() ? std::string() : encode_carried_state("fmg-cuda", radii);
+}
+
+void FmgCuda::restore_carried_state(std::string_view state) {
+  if (state.empty()) {
+    m_impl->restore_smoother_radii({});
+    return;
+  }
+  std::vector<double> radii = decode_carried_state("fmg-cuda", state);
+  for (double rho : radii)
+    if (!(rho >= 0.0 && rho < 1.0)) throw_input_error("{}: smoother spectral radius {} is not in [0, 1)", m_name, rho);
+  if (radii.empty()) throw_input_error("{}: a solver state without levels", m_name);
+  m_impl->restore_smoother_radii(std::move(radii));
+}
+
 SolveReport FmgCuda::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   if (!problem.objective) throw Error(m_name + ": the problem has no objective");
   if (problem.prolongations.empty())

@@ -26,6 +26,9 @@ class FmgCuda final : public NonlinearSolver {
     return true;
   }
   std::string device() const { return m_impl->device(); }
+  /// The Chebyshev radii of every level (cuda::DeviceFmg::smoother_radii).
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
 
  private:
   std::string m_name;

@@ -45,6 +45,20 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
   }
 }
 
+std::vector<double> LinearMultigrid::smoother_rhos() const {
+  std::vector<double> out;
+  for (const auto& level : m_levels) out.push_back(level.rho);
+  return out;
+}
+
+void LinearMultigrid::set_smoother_rhos(const std::vector<double>& rhos) {
+  if (rhos.size() != m_levels.size())
+    throw_input_error("{} smoother spectral radii for a multigrid of {} levels", rhos.size(), m_levels.size());
+  for (double rho : rhos)
+    if (!(rho >= 0.0 && rho < 1.0)) throw_input_error("smoother spectral radius {} is not in [0, 1)", rho);
+  for (size_t l = 0; l < rhos.size(); ++l) m_levels[l].rho = rhos[l];
+}
+
 void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
   if (l == num_levels() - 1) {
     coarse_solve(b, x);

@@ -12,7 +12,8 @@ struct MultigridParams {
   int pre_smooth = 2;   ///< symmetric Gauss-Seidel sweeps before the coarse correction
   int post_smooth = 2;  ///< and after; equal counts keep the V-cycle symmetric (usable inside PCG)
   /// Chebyshev semi-iterative acceleration of the smoothing sweeps (Wang 2015). The spectral radius of each
-  /// level's sweep is estimated on the first matrix and reused for later ones (same mesh, similar spectrum).
+  /// level's sweep is estimated on the first matrix and reused for later ones (same mesh, similar spectrum); a
+  /// checkpoint keeps them (LinearMultigrid::smoother_rhos).
   bool chebyshev = false;
   /// Factor the coarsest level (CHOLMOD). Off for a smoother-only use of a single level (nonlinear Gauss-Seidel),
   /// which then gets a smoother on its coarsest level instead.
@@ -68,6 +69,11 @@ class LinearMultigrid {
 
   /// Spectral radius of each level's symmetric sweep used by Chebyshev smoothing (0 until estimated).
   double smoother_rho(Index l) const { return m_levels[l].rho; }
+  /// All of them, finest first, and their restoration (a resumed run smooths with the radii the uninterrupted run
+  /// estimated on its first matrix, not with radii of the matrix it resumes at). Throws InputError for another
+  /// level count or a value outside [0, 1).
+  std::vector<double> smoother_rhos() const;
+  void set_smoother_rhos(const std::vector<double>& rhos);
   Index num_levels() const { return static_cast<Index>(m_levels.size()); }
   const linalg::BlockMatrix3& matrix(Index l) const;
 

@@ -3,6 +3,7 @@
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/solvers/newton.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::solvers {
@@ -12,6 +13,22 @@ Newton::Newton(NewtonParams params) : m_params(std::move(params)) {
     m_linear = make_newton_linear_solver(m_params.linear, {}, linalg::BlockMatrix3());
 }
 
+
+std::string Newton::carried_state() const {
+  if (!m_linear) return {};
+  const std::vector<double> v = m_linear->carried();
+  if (std::all_of(v.begin(), v.end(), [](double r) { return r == 0.0; })) return {};  // as a fresh solver
+  return encode_carried_state("newton", v);
+}
+
+void Newton::restore_carried_state(std::string_view state) {
+  m_restore.clear();
+  if (state.empty()) {
+    m_linear.reset();
+    return;
+  }
+  m_restore = decode_carried_state("newton", state);
+}
 
 SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   const physics::Objective& obj = *problem.objective;
@@ -29,6 +46,11 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     m_linear = make_newton_linear_solver(m_params.linear, problem.prolongations, obj.hessian_pattern());
     m_linear_for = problem.prolongations;
     m_have_constant = false;
+  }
+  if (!m_restore.empty()) {
+    const std::vector<double> state = std::move(m_restore);
+    m_restore.clear();
+    m_linear->restore(state);
   }
   m_linear_iterations = 0;
   // Solves with the matrix just computed; false when it turned out not positive definite.

@@ -36,6 +36,9 @@ class Newton final : public NonlinearSolver {
   /// Linear iterations (CG iterations or V-cycles; 1 per direct solve) summed over the last minimize().
   long linear_iterations() const { return m_linear_iterations; }
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  /// The linear solver's (multigrid with Chebyshev smoothing: its radii); empty for the others.
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
 
  private:
   NewtonParams m_params;
@@ -45,6 +48,7 @@ class Newton final : public NonlinearSolver {
   linalg::BlockMatrix3 m_hessian, m_scratch;
   bool m_have_constant = false;
   long m_linear_iterations = 0;
+  std::vector<double> m_restore;  ///< restore_carried_state() for the linear solver, once it exists
 };
 
 }  // namespace mgcloth::solvers

@@ -9,6 +9,10 @@ namespace mgcloth::solvers {
 std::vector<std::string> linear_methods() { return {"cholmod", "pcg-mg", "mg", "pcg-amg", "pcg-jacobi"}; }
 bool needs_hierarchy(const std::string& method) { return method == "pcg-mg" || method == "mg"; }
 
+void NewtonLinearSolver::restore(const std::vector<double>& values) {
+  if (!values.empty()) throw_input_error("{} values of linear solver state for a solver that keeps none", values.size());
+}
+
 namespace {
 
 class Direct final : public NewtonLinearSolver {
@@ -75,6 +79,8 @@ class Multigrid final : public Iterative {
     return true;
   }
   void precondition(const VecX& r, VecX& z) override { m_mg.precondition(r, z); }
+  std::vector<double> carried() const override { return m_mg.smoother_rhos(); }
+  void restore(const std::vector<double>& values) override { m_mg.set_smoother_rhos(values); }
   int iterate(const VecX& b, VecX& x, double rel_tol) override {
     if (m_krylov) return Iterative::iterate(b, x, rel_tol);
     const double target = rel_tol * b.norm();

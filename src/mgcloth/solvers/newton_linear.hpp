@@ -41,6 +41,11 @@ class NewtonLinearSolver {
   virtual bool solve(const VecX& b, VecX& x, double rel_tol) = 0;
   /// Iterations of the last solve (1 for a direct solve).
   int iterations() const { return m_iterations; }
+  /// What the next compute() depends on besides its matrix (multigrid: the Chebyshev radii estimated on the first
+  /// matrix), for checkpoints; empty when nothing.
+  virtual std::vector<double> carried() const { return {}; }
+  /// Throws InputError when `values` do not fit this solver.
+  virtual void restore(const std::vector<double>& values);
 
  protected:
   int m_iterations = 0;

@@ -44,6 +44,19 @@ void ExactNewton::direction(const physics::Objective& objective, const VecX& x, 
   }
 }
 
+std::string ExactNewton::carried_state() const {
+  return m_last_shift > 0.0 ? encode_carried_state("exact-newton", {m_last_shift}) : std::string();
+}
+
+void ExactNewton::restore_carried_state(std::string_view state) {
+  m_last_shift = 0.0;
+  if (state.empty()) return;
+  const std::vector<double> v = decode_carried_state("exact-newton", state);
+  if (v.size() != 1 || !(v[0] > 0.0 && std::isfinite(v[0])))
+    throw_input_error("{}: a solver state that is not a positive shift", m_name);
+  m_last_shift = v[0];
+}
+
 SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   const physics::Objective& obj = *problem.objective;
   Timer timer;

@@ -33,6 +33,9 @@ class ExactNewton final : public NonlinearSolver {
   /// Report counters: hessian_assemblies, factorizations, cholmod_fallbacks, max_shift, steepest_descent_steps,
   /// line_search_evaluations.
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
+  /// The last Levenberg shift, where the next shifted factorization starts its search.
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
 
  private:
   /// p = −(H + λI)⁻¹g at x (the exact Hessian), −g when that is not a descent direction.

@@ -5,6 +5,7 @@
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/solvers/nonlinear_fmg.hpp>
 
+#include <bit>
 #include <cassert>
 #include <cmath>
 
@@ -41,6 +42,50 @@ std::vector<NonlinearFMG::Stage> NonlinearFMG::schedule(Index L) const {
 }
 
 
+namespace {
+/// FNV-1a of a matrix's values, −0 counted as +0 (as the == that update_constant_matrix compares with does).
+std::uint64_t constant_matrix_hash(const linalg::BlockMatrix3& A) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const Mat3& b : A.blocks())
+    for (Index i = 0; i < 9; ++i) {
+      const auto bits = std::bit_cast<std::uint64_t>(b.data()[i] + 0.0);
+      for (int k = 0; k < 8; ++k) h = (h ^ ((bits >> (8 * k)) & 0xffu)) * 1099511628211ull;
+    }
+  return h;
+}
+
+constexpr std::string_view kStateTag = "fmg";
+}  // namespace
+
+// Layout: L, the L radii, the L line-search scales, 1 and the matrix hash's bits (a constant matrix) or 0 and 0.
+std::string NonlinearFMG::carried_state() const {
+  if (!m_mg) return {};  // no solve yet: a fresh solver
+  std::vector<double> v{static_cast<double>(m_mg->num_levels())};
+  for (double rho : m_mg->smoother_rhos()) v.push_back(rho);
+  v.insert(v.end(), m_beta.begin(), m_beta.end());
+  const bool constant = m_params.matrix_update == MatrixUpdate::Constant && m_have_matrix;
+  v.push_back(constant ? 1.0 : 0.0);
+  v.push_back(constant ? std::bit_cast<double>(constant_matrix_hash(m_A)) : 0.0);
+  return encode_carried_state(kStateTag, v);
+}
+
+void NonlinearFMG::restore_carried_state(std::string_view state) {
+  m_restore.clear();
+  if (state.empty()) {
+    m_mg.reset();  // as a fresh solver: the radii are estimated on the next matrix
+    return;
+  }
+  std::vector<double> v = decode_carried_state(kStateTag, state);
+  const bool fits = v.size() >= 3 && v[0] >= 1.0 && v[0] <= 64.0 && v[0] == std::floor(v[0]) &&
+                    v.size() == 2 * static_cast<size_t>(v[0]) + 3;
+  if (!fits) throw_input_error("{}: a solver state of {} values that does not describe a multigrid", m_name, v.size());
+  for (size_t l = 0; l < static_cast<size_t>(v[0]); ++l) {
+    const double beta = v[1 + static_cast<size_t>(v[0]) + l];
+    if (!(beta > 0.0 && beta <= 1.0)) throw_input_error("{}: line-search scale {} is not in (0, 1]", m_name, beta);
+  }
+  m_restore = std::move(v);
+}
+
 SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   const physics::Objective& obj = *problem.objective;
   Timer timer;
@@ -53,6 +98,17 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
     m_beta.assign(static_cast<size_t>(m_mg->num_levels()), 1.0);
   }
   const Index L = m_mg->num_levels();
+  if (!m_restore.empty()) {
+    const std::vector<double> state = std::move(m_restore);
+    m_restore.clear();
+    if (state[0] != static_cast<double>(L))
+      throw_input_error("{}: a solver state for {} levels, the cloth's hierarchy has {}", m_name, state[0], L);
+    m_mg->set_smoother_rhos({state.begin() + 1, state.begin() + 1 + L});
+    m_beta.assign(state.begin() + 1 + L, state.begin() + 1 + 2 * L);
+    m_have_matrix = false;
+    m_restored_matrix.reset();
+    if (state[1 + 2 * L] != 0.0) m_restored_matrix = std::bit_cast<std::uint64_t>(state[2 + 2 * L]);
+  }
   const std::vector<Stage> stages = schedule(L);
   m_mg->reset_adaptive_stats();
 
@@ -77,21 +133,31 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   bool have_s = false, as_stale = false, model_poor = false;
   const auto update_matrix = [&] {
     Timer t;
+    bool changed = true;
     if (m_params.matrix_update == MatrixUpdate::Constant) {
-      const bool changed = update_constant_matrix(obj, x, m_have_matrix, m_params.project_psd, m_A, m_scratch);
+      changed = update_constant_matrix(obj, x, m_have_matrix, m_params.project_psd, m_A, m_scratch);
       m_stats.assembly_ms += t.ms();
-      if (!changed) return;  // e.g. the same contact set: keep the hierarchy and its factors
+      const bool restored = m_restored_matrix.has_value();
+      if (restored) {
+        // The hierarchy must be built either way; whether the model is new is what the writer's matrix says.
+        changed = constant_matrix_hash(m_A) != *m_restored_matrix;
+        m_restored_matrix.reset();
+      }
+      logger().debug("{}: constant matrix {}{}", m_name, changed ? "changed" : "unchanged", restored ? " (restored)" : "");
+      if (!changed && !restored) return;  // e.g. the same contact set: keep the hierarchy and its factors
     } else {
       obj.hessian(x, m_A, m_params.project_psd);
       m_stats.assembly_ms += t.ms();
     }
-    as_stale = true;
-    std::fill(m_beta.begin(), m_beta.end(), 1.0);  // a fresh model is trusted again
+    if (changed) {
+      as_stale = true;
+      std::fill(m_beta.begin(), m_beta.end(), 1.0);  // a fresh model is trusted again
+    }
     Timer tg;
     m_mg->set_matrix(m_A);
     m_stats.galerkin_ms += tg.ms();
     m_have_matrix = true;
-    ++m_stats.matrix_updates;
+    if (changed) ++m_stats.matrix_updates;
   };
 
   // Chebyshev weights across corrections (Wang 2015): ω_1 = 1, ω_2 = 2/(2 − ρ²), ω_{k+1} = 4/(4 − ρ² ω_k).

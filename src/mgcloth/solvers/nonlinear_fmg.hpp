@@ -3,7 +3,9 @@
 #include <mgcloth/solvers/linear_multigrid.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
+#include <cstdint>
 #include <memory>
+#include <optional>
 
 namespace mgcloth::solvers {
 
@@ -75,6 +77,10 @@ class NonlinearFMG final : public NonlinearSolver {
   bool projective() const override { return m_params.projective; }
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
   const FmgParams& params() const { return m_params; }
+  /// The Chebyshev radii of every level (estimated once, on the run's first matrix), the line search's starting
+  /// scales and, with a constant matrix, a hash of it (a later solve refactors only when its matrix differs).
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
 
   /// What the last minimize() did and where its time went.
   struct Stats {
@@ -108,6 +114,11 @@ class NonlinearFMG final : public NonlinearSolver {
   linalg::BlockMatrix3 m_A, m_scratch;
   bool m_have_matrix = false;
   std::vector<double> m_beta;  ///< per level: accepted step / model step, to start the next line search (§4.2.3)
+  /// restore_carried_state() for the next minimize(), applied once its multigrid exists.
+  std::vector<double> m_restore;
+  /// After a restore with a constant matrix: the hash of the matrix the writing solver held, which tells whether
+  /// the first matrix assembled after the restore is a new one.
+  std::optional<std::uint64_t> m_restored_matrix;
   Stats m_stats;
 };
 

@@ -4,8 +4,31 @@
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <cmath>
+#include <cstring>
 
 namespace mgcloth::solvers {
+
+void NonlinearSolver::restore_carried_state(std::string_view state) {
+  if (!state.empty())
+    throw_input_error("{} bytes of solver state, which solver \"{}\" does not keep", state.size(), name());
+}
+
+std::string encode_carried_state(std::string_view tag, const std::vector<double>& values) {
+  std::string out(tag);
+  out += '\0';
+  out.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
+  return out;
+}
+
+std::vector<double> decode_carried_state(std::string_view tag, std::string_view state) {
+  const std::size_t head = tag.size() + 1;
+  if (state.size() < head || state.substr(0, tag.size()) != tag || state[tag.size()] != '\0' ||
+      (state.size() - head) % sizeof(double) != 0)
+    throw_input_error("a solver state of {} bytes that solver kind \"{}\" did not write", state.size(), tag);
+  std::vector<double> values((state.size() - head) / sizeof(double));
+  if (!values.empty()) std::memcpy(values.data(), state.data() + head, values.size() * sizeof(double));
+  return values;
+}
 
 void check_finite(const std::string& solver, double energy, double grad_norm, int iteration) {
   if (!std::isfinite(energy) || !std::isfinite(grad_norm))

@@ -6,6 +6,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace mgcloth::solvers {
@@ -99,7 +100,21 @@ class NonlinearSolver {
   /// projection of x, the velocity v = (x − x_old)/h and the friction filter (what sim::ClothBody::finish_step does
   /// on the CPU). Returns false where the caller must do it.
   virtual bool finish_step(const VecX& /*x_old*/, double /*h*/, VecX& /*x*/, VecX& /*v*/) { return false; }
+  /// What a minimize() leaves behind that steers the next one (FMG: the Chebyshev spectral radii estimated on the
+  /// run's first matrix, the line search's starting scales), as bytes for checkpoints
+  /// (sim::Checkpoint::Body::solver_state); empty when the next solve depends only on its problem and start.
+  virtual std::string carried_state() const { return {}; }
+  /// Gives carried_state() back before the next minimize(), which then solves exactly as the solver that wrote it
+  /// would have (a resumed run repeats the uninterrupted one bit for bit). Empty: a fresh solver. Throws InputError
+  /// when the state is not one this solver wrote for this problem's size.
+  virtual void restore_carried_state(std::string_view state);
 };
+
+/// carried_state() encoding: `tag` (the solver kind, so that a state is never read by another kind), a NUL, then
+/// the values' bytes in the host's order.
+std::string encode_carried_state(std::string_view tag, const std::vector<double>& values);
+/// The values of a state encode_carried_state(tag, ...) wrote; InputError naming `tag` otherwise.
+std::vector<double> decode_carried_state(std::string_view tag, std::string_view state);
 
 /// Pieces every iterative solver shares.
 /// Throws SolveError when the energy or the gradient norm is not finite (the solve diverged).

@@ -529,9 +529,33 @@ double Rmtr::work_units_qp() const {
   return w;
 }
 
+std::string Rmtr::carried_state() const {
+  std::vector<double> shifts;
+  for (const auto& lv : m_levels) shifts.push_back(lv->tr->dogleg_shift());
+  if (std::all_of(shifts.begin(), shifts.end(), [](double s) { return s == 0.0; })) return {};  // as a fresh solver
+  return encode_carried_state("rmtr", shifts);
+}
+
+void Rmtr::restore_carried_state(std::string_view state) {
+  m_restore_shifts.clear();
+  for (auto& lv : m_levels) lv->tr->set_dogleg_shift(0.0);
+  if (state.empty()) return;
+  m_restore_shifts = decode_carried_state("rmtr", state);
+  for (double s : m_restore_shifts)
+    if (!(s >= 0.0 && std::isfinite(s))) throw_input_error("{}: a solver state with the shift {}", m_name, s);
+  if (m_restore_shifts.empty()) throw_input_error("{}: a solver state without levels", m_name);
+}
+
 SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   Timer timer;
   setup(problem);
+  if (!m_restore_shifts.empty()) {
+    if (m_restore_shifts.size() != m_levels.size())
+      throw_input_error("{}: a solver state for {} levels, the problem has {}", m_name, m_restore_shifts.size(),
+                        m_levels.size());
+    for (size_t i = 0; i < m_levels.size(); ++i) m_levels[i]->tr->set_dogleg_shift(m_restore_shifts[i]);
+    m_restore_shifts.clear();
+  }
   for (auto& lv : m_levels) {
     lv->tr->reset();
     lv->last_end.resize(0);  // a previous solve's states belong to another time step

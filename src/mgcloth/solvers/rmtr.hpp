@@ -133,6 +133,9 @@ class Rmtr final : public NonlinearSolver {
   /// coarse_start "best": each coarse level's kept state, coarsest first (empty otherwise).
   std::vector<VecX> level_states() const override;
   void resume_level_states(std::vector<VecX> states) override { m_resume_states = std::move(states); }
+  /// Every level's dogleg shift (LocalTrustRegion::dogleg_shift), coarsest first.
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
   /// Work units of eq. 7.3 for the last minimize(): Σ_l 2^{-2(L-l)} Q^l, with Q^l Hessian assemblies (assembly) or
   /// QP calls (qp) on level l.
   double work_units_assembly() const;
@@ -177,6 +180,7 @@ class Rmtr final : public NonlinearSolver {
   std::vector<double> m_finest_energies;
   std::vector<int> m_nested_cycles;  ///< V-cycles (coarsest: Local_TR iterations) per level of nested iteration
   std::vector<VecX> m_resume_states;  ///< resume_level_states() for the next minimize()
+  std::vector<double> m_restore_shifts;  ///< restore_carried_state() for the next minimize()
 };
 
 }  // namespace mgcloth::solvers

@@ -302,6 +302,28 @@ TrustRegion::TrustRegion(TrustRegionParams params, std::string name)
     : m_name(!name.empty() ? std::move(name) : params.qp == TrQp::Dogleg ? "tr-dogleg" : "tr-stcg"),
       m_core(std::move(params), m_name) {}
 
+namespace {
+/// A shift restored from a checkpoint: finite and not negative.
+double restored_shift(double shift, const std::string& solver) {
+  if (!(shift >= 0.0 && std::isfinite(shift))) throw_input_error("{}: a solver state with the shift {}", solver, shift);
+  return shift;
+}
+}  // namespace
+
+std::string TrustRegion::carried_state() const {
+  return m_core.dogleg_shift() > 0.0 ? encode_carried_state("tr", {m_core.dogleg_shift()}) : std::string();
+}
+
+void TrustRegion::restore_carried_state(std::string_view state) {
+  if (state.empty()) {
+    m_core.set_dogleg_shift(0.0);
+    return;
+  }
+  const std::vector<double> v = decode_carried_state("tr", state);
+  if (v.size() != 1) throw_input_error("{}: a solver state of {} values, not one shift", m_name, v.size());
+  m_core.set_dogleg_shift(restored_shift(v[0], m_name));
+}
+
 SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   Timer timer;
   m_core.reset();

@@ -184,6 +184,10 @@ class LocalTrustRegion {
   const TrCounters& counters() const { return m_counters; }
   const std::vector<TrIteration>& history() const { return m_history; }
   void reset();
+  /// The dogleg's last shift, where the next indefinite Hessian's shift search starts (Dogleg::shift), and its
+  /// restoration from a checkpoint.
+  double dogleg_shift() const { return m_dogleg.shift(); }
+  void set_dogleg_shift(double shift) { m_dogleg.set_start_shift(shift); }
   /// The patches of TrQp::Schwarz (e.g. every control point with its one-ring).
   void set_patches(std::vector<std::vector<Index>> patches);
 
@@ -221,6 +225,9 @@ class TrustRegion final : public NonlinearSolver {
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
   /// Iterations of the last minimize().
   const std::vector<TrIteration>& history() const { return m_core.history(); }
+  /// The dogleg's last shift (LocalTrustRegion::dogleg_shift).
+  std::string carried_state() const override;
+  void restore_carried_state(std::string_view state) override;
 
  private:
   std::string m_name;
