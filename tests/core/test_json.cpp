@@ -42,5 +42,21 @@ TEST(Json, NumbersBeyondADoubleNameFileAndPath) {
   EXPECT_NE(parse_error("1e400").find("scene.json: (top level): number overflow"), std::string::npos);
 }
 
+// Deep nesting is parsed without recursion but copied, printed and compared recursively: 200,000 brackets crashed
+// `mgcloth run` with a segmentation fault.
+TEST(Json, NestingDeeperThan256IsAnError) {
+  const auto nested = [](int depth) {
+    return R"({"cloths": [{"mesh": {}}], "solver": {"params": )" + std::string(depth, '[') + std::string(depth, ']') +
+           "}}";
+  };
+  // Two objects (the top level, solver) hold the params arrays: 254 of them make 256 levels.
+  EXPECT_NO_THROW(parse_json(nested(254), "scene.json"));
+  std::string path = "solver.params";
+  for (int i = 0; i < 254; ++i) path += "[0]";  // the innermost array is the 255th
+  EXPECT_EQ(parse_error(nested(255)), "scene.json: " + path + ": arrays and objects nested more than 256 deep");
+  const std::string deep = parse_error(nested(200000));
+  EXPECT_NE(deep.find(": arrays and objects nested more than 256 deep"), std::string::npos) << deep.substr(0, 200);
+}
+
 }  // namespace
 }  // namespace mgcloth

@@ -231,6 +231,21 @@ TEST(QuadObj, BadFilesNameTheFileAndElement) {
   EXPECT_NE(error_of(unused).find("point 5 belongs to no quad"), std::string::npos) << error_of(unused);
 }
 
+// Found by fuzz/fuzz_obj: tinyobjloader only warns about a vt index past the last vt line, and the reader read
+// past the end of the texture coordinates (a heap overflow under AddressSanitizer, garbage material coordinates
+// without it).
+TEST(QuadObj, TextureIndexPastTheLastVtIsAnError) {
+  const auto past = write_temp("vt_past.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\n"
+                                              "f 1/1 2/2 3/3 4/4\n");
+  EXPECT_EQ(error_of(past), past.string() + ": face 1 refers to texture coordinate 3, but there are 2 (vt lines)");
+  // The input the fuzzer found, as it found it.
+  const auto found = write_temp("vt_fuzz.obj", "# a quad with texture coordinates\nv 0 0 0\nv 1 0 0\nv 1 1 0.5\n"
+                                               "v 0 1 0.5\nvv 0 0\nvt 1 0\nvt 1 1.1\nvt'0 1.1\nvn 0 0 1\n"
+                                               "g cl\xefth\nf 1/1/1 2/2/1 3/3/1 4/4/1\n");
+  EXPECT_NE(error_of(found).find("face 1 refers to texture coordinate 3, but there are 2"), std::string::npos)
+      << error_of(found);
+}
+
 // The control mesh is read as strictly as a cloth's OBJ (check_obj_statements): tinyobjloader alone reads "nan" as
 // 0 and "4x" as 4.
 TEST(QuadObj, MalformedStatementsNameTheLine) {

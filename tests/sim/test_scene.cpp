@@ -105,7 +105,7 @@ TEST(Scene, NamesThatWouldBreakCsvOrPathsAreRejected) {
       {"say \"hi\"", "contains '\"'"},
       {"two\nlines", "contains the control character 0x0a"},
       {std::string("nul\0byte", 8), "contains the control character 0x00"},
-      {"tab\there", "control character 0x09"},
+      {"tab\there", "contains the control character 0x09"},
       {"../up", "contains '/'"},
       {"..", "is a folder name"},
       {"", "is empty"},

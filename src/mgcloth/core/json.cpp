@@ -229,13 +229,22 @@ namespace {
 /// overflows a double) is reported with its JSON path.
 class PathTracker {
  public:
+  static constexpr std::size_t kMaxJsonDepth = 256;
+
   explicit PathTracker(const std::string& file) : m_file(file) {}
 
   bool operator()(int /*depth*/, Json::parse_event_t event, Json& parsed) {
     using E = Json::parse_event_t;
     switch (event) {
-      case E::object_start: m_frames.push_back({true}); break;
-      case E::array_start: m_frames.push_back({false}); break;
+      case E::object_start:
+      case E::array_start:
+        // nlohmann parses any depth, but copying, printing and comparing values recurse: a file of 200,000 nested
+        // brackets overflowed the stack (a segmentation fault) instead of being an error.
+        if (m_frames.size() >= kMaxJsonDepth)
+          throw InputError(fmt::format("{}: {}: arrays and objects nested more than {} deep", m_file, path(),
+                                       kMaxJsonDepth));
+        m_frames.push_back({event == E::object_start});
+        break;
       case E::key: {
         Frame& f = m_frames.back();
         f.key = parsed.get<std::string>();

@@ -68,7 +68,8 @@ class JsonReader {
   std::set<std::string> m_used;
 };
 
-/// Parses JSON text; syntax errors become InputError with file, line and column.
+/// Parses JSON text; syntax errors become InputError with file, line and column; so do a key given twice in one
+/// object, a number beyond the range of a double and arrays or objects nested more than 256 deep (with the path).
 Json parse_json(const std::string& text, const std::string& file);
 Json load_json(const std::string& file);
 

@@ -315,6 +315,7 @@ QuadMesh read_quad_obj(const std::filesystem::path& path, double material_scale,
     throw_input_error("{}: cannot parse: {}", source, err.substr(0, err.find('\n')));
   QuadMesh m;
   const Index n = static_cast<Index>(attrib.vertices.size() / 3);
+  const Index num_vt = static_cast<Index>(attrib.texcoords.size() / 2);
   m.x.resize(3, n);
   for (Index i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) m.x(k, i) = attrib.vertices[3 * i + k];
@@ -323,6 +324,10 @@ QuadMesh read_quad_obj(const std::filesystem::path& path, double material_scale,
   Index face = 0;
   for (const auto& shape : shapes) {
     const bool ghost = shape.name == "ghost";
+    size_t corners_total = 0;
+    for (const auto c : shape.mesh.num_face_vertices) corners_total += c;
+    if (corners_total != shape.mesh.indices.size())  // tinyobjloader counts corners in an unsigned char
+      throw_input_error("{}: a face has more than 255 corners; a Catmull-Clark control mesh must be all quads", source);
     size_t offset = 0;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face) {
       const int corners = shape.mesh.num_face_vertices[f];
@@ -334,6 +339,11 @@ QuadMesh read_quad_obj(const std::filesystem::path& path, double material_scale,
         if (idx.vertex_index < 0 || idx.vertex_index >= n)
           throw_input_error("{}: face {} refers to point {}, but there are {} points", source, face + 1, idx.vertex_index + 1, n);
         q[c] = idx.vertex_index;
+        // tinyobjloader only warns about a vt index past the last vt line (and resolves a relative one before the
+        // first to a negative number); read unchecked, it was a read past the end of the texture coordinates.
+        if (idx.texcoord_index >= num_vt || idx.texcoord_index < -1)
+          throw_input_error("{}: face {} refers to texture coordinate {}, but there are {} (vt lines)", source,
+                            face + 1, idx.texcoord_index + 1, num_vt);
         if (idx.texcoord_index >= 0) {
           any_vt = true;
           Index& vt = vt_of[q[c]];

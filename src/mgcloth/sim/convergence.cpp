@@ -643,7 +643,7 @@ std::vector<ScalabilityRow> run_scalability(const Scene& scene, const Scalabilit
         converged = converged && st.report.converged;
         for (const auto& [name, value] : st.report.counters) {
           if (!name.ends_with("_ms") && !name.ends_with("_per_s")) continue;
-          auto it = std::find_if(row.phases.begin(), row.phases.end(), [&](const auto& p) { return p.first == name; });
+          auto it = std::find_if(row.phases.begin(), row.phases.end(), [&n = name](const auto& p) { return p.first == n; });
           if (it == row.phases.end()) row.phases.push_back({name, value});
           else it->second += value;
         }
