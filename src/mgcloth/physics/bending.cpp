@@ -176,7 +176,9 @@ TriangleCurvature recovered_curvature(const mesh::TriMesh& mesh, const mesh::Top
 }
 
 IsometricBending::IsometricBending(const mesh::TriMesh& mesh, const mesh::Topology& topo, const Material& m) {
-  const TriangleCurvature S = recovered_curvature(mesh, topo);
+  m_S = recovered_curvature(mesh, topo);
+  m_kb = m.bending_stiffness;
+  const TriangleCurvature& S = m_S;
   const Eigen::Vector3d metric(1.0, 2.0, 1.0);
   std::vector<Eigen::Triplet<double>> entries;
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
@@ -191,11 +193,12 @@ IsometricBending::IsometricBending(const mesh::TriMesh& mesh, const mesh::Topolo
 }
 
 double IsometricBending::value(const VecX& x) const {
-  return 0.5 * parallel_sum(m_K.rows(), [&](Index i) {
-    Vec3 Kx = Vec3::Zero();
-    for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(m_K, i); it; ++it)
-      Kx += it.value() * x.segment<3>(3 * it.col());
-    return x.segment<3>(3 * i).dot(Kx);
+  // Per triangle |D²x|², so that a planar state is zero to the square of round-off and the energy is never negative.
+  const Index nt = static_cast<Index>(m_S.area.size());
+  return 0.5 * m_kb * parallel_sum(nt, [&](Index t) {
+    Eigen::Matrix3d D = Eigen::Matrix3d::Zero();  // column c: (S_xx, S_xy, S_yy) of coordinate c
+    for (Index k = m_S.offsets[t]; k < m_S.offsets[t + 1]; ++k) D += m_S.weights[k] * x.segment<3>(3 * m_S.vertices[k]).transpose();
+    return m_S.area[t] * (D.row(0).squaredNorm() + 2.0 * D.row(1).squaredNorm() + D.row(2).squaredNorm());
   });
 }
 

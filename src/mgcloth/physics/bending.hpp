@@ -77,6 +77,8 @@ class IsometricBending final : public Term {
  private:
   Eigen::SparseMatrix<double, Eigen::RowMajor> m_K;
   std::vector<Index> m_slots;  ///< block of each stored entry of K
+  TriangleCurvature m_S;       ///< for the value as a sum of squares (½ xᵀKx would carry round-off ∝ |K||x|²)
+  double m_kb = 0.0;
 };
 
 /// The quadratic (isometric) bending model of Bergou et al. 2006: E = k_b/(2(Ā1 + Ā2)) |Σ_i K_i x_i|² with the
