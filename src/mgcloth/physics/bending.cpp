@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <span>
 
 namespace mgcloth::physics {
@@ -34,7 +33,7 @@ Eigen::Matrix<double, 1, 6> monomials(const Vec2& p) {
 }
 
 // Smallest over largest singular value of the fit's rows: below this a point is nearly on a conic through the others
-// and would make the slope ill-conditioned. The regular grid's and the generators' stencils have ratios above 0.05.
+// and would make the slope ill-conditioned.
 constexpr double kFitConditioning = 1e-3;
 
 // The slope at the midpoint of edge (a, b) of the quadratic through a, b, the opposite vertices c, d and the two
@@ -103,20 +102,21 @@ Eigen::Matrix<double, 2, 3> linear_gradients(const mesh::TriMesh& mesh, const Tr
 
 TriangleCurvature recovered_curvature(const mesh::TriMesh& mesh, const mesh::Topology& topo) {
   const Index ne = topo.num_edges(), nt = mesh.num_triangles();
-  // The slope stencil of each interior edge (the two triangles' opposite vertices from the hinge list).
+  // The slope stencil of each interior edge, from its two triangles' opposite vertices.
   std::vector<EdgeSlope> slope(static_cast<size_t>(ne));
   std::vector<char> has_fit(static_cast<size_t>(ne), 0), interior(static_cast<size_t>(ne), 0);
   TriangleCurvature out;
-  std::vector<Index> edge_of_hinge;
-  {
-    std::map<std::pair<Index, Index>, Index> index;
-    for (Index e = 0; e < ne; ++e) index[{topo.edges[e][0], topo.edges[e][1]}] = e;
-    for (const mesh::Hinge& h : topo.hinges) {
-      const Index e = index.at(std::minmax(h.v[0], h.v[1]));
-      interior[e] = 1;
-      has_fit[e] = edge_slope(mesh, topo, h.v[0], h.v[1], h.v[2], h.v[3], slope[e]);
-      if (!has_fit[e]) ++out.fallback_edges;
-    }
+  const auto opposite = [&](Index t, Index e) {
+    for (Index v : mesh.tris[t])
+      if (v != topo.edges[e][0] && v != topo.edges[e][1]) return v;
+    return Index{-1};
+  };
+  for (Index e = 0; e < ne; ++e) {
+    const auto [t0, t1] = topo.edge_tris[e];
+    if (t0 < 0 || t1 < 0) continue;
+    interior[e] = 1;
+    has_fit[e] = edge_slope(mesh, topo, topo.edges[e][0], topo.edges[e][1], opposite(t0, e), opposite(t1, e), slope[e]);
+    if (!has_fit[e]) ++out.fallback_edges;
   }
   const Eigen::Vector3d metric(1.0, 2.0, 1.0);  // |S|² = S_xx² + 2 S_xy² + S_yy²
   out.area.resize(static_cast<size_t>(nt));

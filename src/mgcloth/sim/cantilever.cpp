@@ -8,7 +8,6 @@
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/membrane.hpp>
-#include <mgcloth/linalg/cholmod_solver.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/solvers/newton.hpp>
 
@@ -186,8 +185,8 @@ Mat3X hang_strip(const Strip& strip, const physics::Material& material, double c
     if (m.u(0, i) <= clamp) pinned.push_back(i), targets.push_back(m.x.col(i));
   if (pinned.empty()) throw Error("hang_strip: no vertex in the clamp");
   // Stiff enough that the clamp does not turn: the pins hold the bending moment at the clamp line as forces ~M/h on
-  // vertices h apart, and at 1e9 x the weight (the clamp moving ~1e-9 m) that turning softened strips by 3-8% at
-  // 12,000 vertices or L/c = 0.5.
+  // vertices h apart, and at 1e9 x the weight (the clamp moving ~1e-9 m) that turning softened a strip by 1.3% at
+  // 12,000 vertices and by 8% at L/c = 0.5 (bench/RESULTS.md, "Bending rigidity").
   const double k = 1e13 * material.areal_density() * 9.81 * strip.length * strip.width / pinned.size();
   auto& pins = obj.add(std::make_unique<physics::AttachmentTerm>(pinned, std::vector<double>(pinned.size(), k), n));
   pins.set_targets(targets);
@@ -204,24 +203,6 @@ Mat3X hang_strip(const Strip& strip, const physics::Material& material, double c
   if (!rep.converged && rep.status != "stalled" && rep.status != "stagnated")
     throw Error(fmt::format("hang_strip: Newton ended {} after {} iterations, relative gradient {:.3e}", rep.status,
                             rep.iterations, rep.grad_norm / rep.initial_grad_norm));
-  // The line search stops where the energy's changes fall below its round-off (the membrane is ~1e8 times stiffer
-  // than the bending it holds up), which at 12,000 vertices left the gradient at 1e-5 of gravity's and the drop a few
-  // percent off. Full Newton steps judged by the gradient's norm go on to the gradient's own floor.
-  linalg::BlockMatrix3 H = obj.hessian_pattern();
-  linalg::CholmodSolver cholmod;
-  VecX g(x.size()), dx(x.size());
-  obj.gradient(x, g);
-  for (int it = 0; it < 20; ++it) {
-    obj.hessian(x, H, false);
-    if (!cholmod.factorize(H)) break;
-    cholmod.solve(g, dx);
-    const VecX trial = x - dx;
-    VecX gt(x.size());
-    obj.gradient(trial, gt);
-    if (!(gt.norm() < 0.5 * g.norm())) break;
-    x = trial;
-    g = gt;
-  }
   return x.reshaped(3, n);
 }
 
