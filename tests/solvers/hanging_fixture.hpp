@@ -20,8 +20,9 @@ struct Hanging {
   std::vector<Index> pins;  ///< the two pinned corners
 };
 
-/// A 0.4 m square hanging from its two top corners: gravity, StVK, hinge bending, pins; static when `h` is 0.
-inline std::unique_ptr<Hanging> hanging(Index vertices, double h) {
+/// A 0.4 m square hanging from its two top corners: gravity, StVK, bending (the hinge unless said), pins; static
+/// when `h` is 0.
+inline std::unique_ptr<Hanging> hanging(Index vertices, double h, physics::BendingModel bending = physics::BendingModel::Hinge) {
   auto p = std::make_unique<Hanging>();
   mesh::RectangleSpec spec;
   spec.width = spec.height = 0.4;
@@ -29,6 +30,7 @@ inline std::unique_ptr<Hanging> hanging(Index vertices, double h) {
   p->mesh = mesh::make_rectangle(spec);
   p->topo = mesh::build_topology(p->mesh);
   physics::Material mat;
+  mat.bending = bending;
   const Index n = p->mesh.num_vertices();
   VecX mass = VecX::Zero(n);
   for (Index t = 0; t < p->mesh.num_triangles(); ++t)
@@ -43,7 +45,7 @@ inline std::unique_ptr<Hanging> hanging(Index vertices, double h) {
   }
   p->objective.add(std::make_unique<physics::GravityTerm>(mass, Vec3(0, 0, -9.81)));
   p->objective.add(std::make_unique<physics::StVKMembrane>(p->mesh, mat));
-  p->objective.add(std::make_unique<physics::HingeBending>(p->mesh, p->topo, mat));
+  p->objective.add(physics::make_bending(p->mesh, p->topo, mat, /*projective=*/false));
   Index a = 0, b = 0;
   (p->mesh.u.colwise() - Vec2(0, 0)).colwise().squaredNorm().minCoeff(&a);
   (p->mesh.u.colwise() - Vec2(0.4, 0)).colwise().squaredNorm().minCoeff(&b);

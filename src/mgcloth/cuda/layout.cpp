@@ -160,6 +160,28 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
         const auto& K = qb->cotangent_weights()[static_cast<size_t>(e)];
         O.hinge_k.insert(O.hinge_k.end(), {K[0], K[1], K[2], K[3]});
       }
+    } else if (const auto* ib = dynamic_cast<const physics::IsometricBending*>(t)) {
+      once(bending, "bending");
+      O.isometric_bending = true;
+      const auto& K = ib->matrix();
+      O.bend_offsets.assign(1, 0);
+      for (Index r = 0; r < O.n; ++r) {
+        const Index i = top.perm[static_cast<size_t>(r)];
+        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(K, i); it; ++it) {
+          const Index c = inv[static_cast<size_t>(it.col())];
+          O.bend_cols.push_back(c);
+          O.bend_values.push_back(it.value());
+          O.bend_slots.push_back(top.pattern.find(r, c));
+        }
+        O.bend_offsets.push_back(static_cast<Index>(O.bend_cols.size()));
+      }
+      const physics::TriangleCurvature& S = ib->curvature();
+      O.curv_offsets = S.offsets;
+      for (size_t k = 0; k < S.vertices.size(); ++k) {
+        O.curv_vertices.push_back(inv[static_cast<size_t>(S.vertices[k])]);
+        O.curv_weights.insert(O.curv_weights.end(), {S.weights[k][0], S.weights[k][1], S.weights[k][2]});
+      }
+      for (double a : S.area) O.curv_kb_area.push_back(ib->stiffness() * a);
     } else if (const auto* at = dynamic_cast<const physics::AttachmentTerm*>(t)) {
       once(pins, t->name());
       std::vector<std::vector<Index>> by_vertex(static_cast<size_t>(O.n));
@@ -181,7 +203,7 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
     } else {
       throw InputError(fmt::format(
           "fmg-cuda: the objective's term \"{}\" has no device implementation (the GPU pipeline takes inertia, gravity, "
-          "the StVK membrane, hinge or quadratic-bergou bending, pins and the cubic obstacle penalty; use \"fmg\")",
+          "the StVK membrane, every bending model, pins and the cubic obstacle penalty; use \"fmg\")",
           t->name()));
     }
   }

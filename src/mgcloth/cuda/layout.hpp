@@ -43,7 +43,7 @@ struct ElementGroup {
 };
 
 /// The triangle-cloth objective (Wang 2018 eq. 2) as flat arrays for the device pipeline: inertia, gravity, StVK
-/// membrane, hinge or quadratic bending, attachments and the cubic obstacle penalty; the same terms and element
+/// membrane, any of the bending models, attachments and the cubic obstacle penalty; the same terms and element
 /// math (physics/element_kernels.hpp) as the CPU physics::Objective it is built from.
 struct ObjectiveLayout {
   Index n = 0;
@@ -54,10 +54,18 @@ struct ObjectiveLayout {
   ElementGroup tris;
   std::vector<double> tri_dm_inv, tri_at;
   double mu = 0.0, lambda = 0.0;
-  // Bending: weights c per hinge; quadratic bending also the cotangent weights K (4 per hinge).
+  // Hinge bending: weights c per hinge; Bergou's quadratic bending also the cotangent weights K (4 per hinge).
   ElementGroup hinges;
   bool quadratic_bending = false;
   std::vector<double> hinge_c, hinge_k;
+  // Consistent quadratic bending (physics::IsometricBending): its scalar matrix K by device rows with the level-0
+  // block of every entry (gradient K x and Hessian K ⊗ I₃ row by row, no races), and each triangle's curvature
+  // weights (S_xx, S_xy, S_yy per vertex) with k_b·A_T, for the energy as a sum of squares as on the CPU.
+  bool isometric_bending = false;
+  std::vector<Index> bend_offsets, bend_cols, bend_slots;
+  std::vector<double> bend_values;
+  std::vector<Index> curv_offsets, curv_vertices;
+  std::vector<double> curv_weights, curv_kb_area;
   // Pins, grouped by vertex (several pins may share one): pin_offsets[i]..pin_offsets[i+1] are vertex i's.
   std::vector<Index> pin_offsets;
   std::vector<double> pin_k;

@@ -101,6 +101,14 @@ class Pipeline final : public DeviceFmg {
     m_hinge_slots.upload(O.hinges.slots);
     m_hinge_c.upload(O.hinge_c);
     m_hinge_k.upload(O.hinge_k);
+    m_bend_off.upload(O.bend_offsets);
+    m_bend_cols.upload(O.bend_cols);
+    m_bend_slots.upload(O.bend_slots);
+    m_bend_val.upload(O.bend_values);
+    m_curv_off.upload(O.curv_offsets);
+    m_curv_v.upload(O.curv_vertices);
+    m_curv_w.upload(O.curv_weights);
+    m_curv_ka.upload(O.curv_kb_area);
     m_pin_off.upload(O.pin_offsets);
     m_pin_k.upload(O.pin_k);
     m_contact_k.upload(O.contact_k);
@@ -206,6 +214,55 @@ class Pipeline final : public DeviceFmg {
   HingeView hinges() const {
     return {m_hinge_v.data(), m_hinge_slots.data(), m_hinge_c.data(), m_hinge_k.data(), m_layout.objective.quadratic_bending};
   }
+  /// The consistent quadratic bending (physics::IsometricBending): the scalar matrix K by rows and the triangles'
+  /// curvature weights.
+  struct IsometricView {
+    const Index *off, *cols, *slots, *curv_off, *curv_v;
+    const double *val, *curv_w, *curv_ka;
+    Index rows, triangles;
+  };
+  IsometricView isometric() const {
+    const ObjectiveLayout& O = m_layout.objective;
+    if (!O.isometric_bending) return {nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, 0, 0};
+    return {m_bend_off.data(), m_bend_cols.data(), m_bend_slots.data(), m_curv_off.data(), m_curv_v.data(),
+            m_bend_val.data(), m_curv_w.data(),    m_curv_ka.data(),    O.n,               static_cast<Index>(O.curv_kb_area.size())};
+  }
+  /// k_b/2 A_T |D²x|² summed over triangles, as a sum of squares (zero to round-off squared on a planar state).
+  double isometric_energy(const double* x) const {
+    const IsometricView I = isometric();
+    return B::sum(I.triangles, MGCLOTH_LAMBDA(Index t) {
+      double D[9] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // D[3c + s]: component s of coordinate c
+      for (Index k = I.curv_off[t]; k < I.curv_off[t + 1]; ++k)
+        for (int c = 0; c < 3; ++c)
+          for (int q = 0; q < 3; ++q) D[3 * c + q] += I.curv_w[3 * k + q] * x[3 * I.curv_v[k] + c];
+      double sq = 0.0;
+      for (int c = 0; c < 3; ++c) sq += D[3 * c] * D[3 * c] + 2.0 * D[3 * c + 1] * D[3 * c + 1] + D[3 * c + 2] * D[3 * c + 2];
+      return 0.5 * I.curv_ka[t] * sq;
+    });
+  }
+  /// g += (K ⊗ I₃) x, one row per thread.
+  void isometric_gradient(const double* x, double* g) const {
+    const IsometricView I = isometric();
+    B::for_each(I.triangles > 0 ? I.rows : 0, MGCLOTH_LAMBDA(Index i) {
+      double Kx[3] = {0.0, 0.0, 0.0};
+      for (Index k = I.off[i]; k < I.off[i + 1]; ++k)
+        for (int c = 0; c < 3; ++c) Kx[c] += I.val[k] * x[3 * I.cols[k] + c];
+      for (int c = 0; c < 3; ++c) g[3 * i + c] += Kx[c];
+    });
+  }
+  /// A += K ⊗ I₃ (constant and positive semi-definite: nothing to project); each entry owns its block.
+  void isometric_hessian(double* A) const {
+    const IsometricView I = isometric();
+    B::for_each(I.triangles > 0 ? I.rows : 0, MGCLOTH_LAMBDA(Index i) {
+      for (Index k = I.off[i]; k < I.off[i + 1]; ++k) {
+        double* blk = A + 9 * I.slots[k];
+        blk[0] += I.val[k];
+        blk[4] += I.val[k];
+        blk[8] += I.val[k];
+      }
+    });
+  }
+
   template <int K>
   MGCLOTH_HOST_DEVICE static void gather(const double* x, const Index* v, double* xe) {
     for (int a = 0; a < K; ++a)
@@ -260,7 +317,8 @@ class Pipeline final : public DeviceFmg {
     const PointTerms P = point_terms();
     const ObjectiveLayout& O = m_layout.objective;
     return B::sum(m_n, MGCLOTH_LAMBDA(Index i) { return point_element(P, i, x + 3 * i, nullptr, nullptr); }) +
-           element_energy(triangles(), O.tris.size(), x) + element_energy(hinges(), O.hinges.size(), x);
+           element_energy(triangles(), O.tris.size(), x) + element_energy(hinges(), O.hinges.size(), x) +
+           isometric_energy(x);
   }
 
   void gradient(const double* x, double* g) const {
@@ -273,6 +331,7 @@ class Pipeline final : public DeviceFmg {
     const ObjectiveLayout& O = m_layout.objective;
     element_gradient(triangles(), O.tris.color_offsets, x, g);
     element_gradient(hinges(), O.hinges.color_offsets, x, g);
+    isometric_gradient(x, g);
   }
 
   /// The PSD-projected Hessian into level 0's blocks (the fixed pattern; element colors again keep it race-free).
@@ -286,6 +345,7 @@ class Pipeline final : public DeviceFmg {
     const ObjectiveLayout& O = m_layout.objective;
     element_hessian(triangles(), O.tris.color_offsets, x, A);
     element_hessian(hinges(), O.hinges.color_offsets, x, A);
+    isometric_hessian(A);
   }
 
   /// Moves vertices inside obstacles onto their surfaces (§4.5); returns how many moved.
@@ -669,6 +729,8 @@ class Pipeline final : public DeviceFmg {
   std::vector<Level> m_levels;
   Buf<double> m_mass, m_tri_dm, m_tri_at, m_hinge_c, m_hinge_k, m_pin_k, m_contact_k, m_y, m_pin_targets;
   Buf<Index> m_tri_v, m_tri_slots, m_hinge_v, m_hinge_slots, m_pin_off;
+  Buf<Index> m_bend_off, m_bend_cols, m_bend_slots, m_curv_off, m_curv_v;
+  Buf<double> m_bend_val, m_curv_w, m_curv_ka;
   Buf<hd::ObstacleData> m_obstacles;
   Index m_num_obstacles = 0;
   double m_inv_h2 = 0.0;

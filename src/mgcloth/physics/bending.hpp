@@ -73,6 +73,8 @@ class IsometricBending final : public Term {
   void bind(const linalg::BlockMatrix3& pattern) override;
   /// K, symmetric, both triangles stored.
   const Eigen::SparseMatrix<double, Eigen::RowMajor>& matrix() const { return m_K; }
+  const TriangleCurvature& curvature() const { return m_S; }
+  double stiffness() const { return m_kb; }
 
  private:
   Eigen::SparseMatrix<double, Eigen::RowMajor> m_K;
