@@ -180,3 +180,34 @@ TEST(IsometricBending, CylinderEnergyIsTheContinuumsInEveryDirection) {
     }
   }
 }
+
+// A strip one cell wide has no six vertices around any edge that determine a quadratic (they lie on two lines), so
+// every interior edge takes the bisector slope, the mean of its two triangles' linear slopes. Along the strip that
+// slope is still exact for a quadratic (the two means straddle the edge's midpoint), so the strip wrapped on a
+// cylinder along its length has the continuum's energy, and a planar state has none.
+TEST(IsometricBending, AStripOneCellWideFallsBackToBisectorSlopesThatAreExactAlongIt) {
+  mesh::RectangleSpec spec;
+  spec.width = 0.05;
+  spec.height = 1.0;
+  spec.target_vertices = 42;
+  const mesh::TriMesh m = mesh::make_rectangle(spec);
+  const mesh::Topology topo = mesh::build_topology(m);
+  Index interior = 0;
+  for (const auto& [t0, t1] : topo.edge_tris) interior += t0 >= 0 && t1 >= 0;
+  const TriangleCurvature S = recovered_curvature(m, topo);
+  ASSERT_GT(interior, 30);
+  EXPECT_EQ(S.fallback_edges, interior);
+  Material mat;
+  mat.bending_stiffness = 1.0;
+  const IsometricBending term(m, topo, mat);
+  const double kappa = 3.0;
+  VecX bent(3 * m.num_vertices()), flat(3 * m.num_vertices());
+  for (Index i = 0; i < m.num_vertices(); ++i) {
+    const double s = m.u(1, i), t = m.u(0, i);
+    bent.segment<3>(3 * i) = Vec3(t, std::sin(kappa * s) / kappa, (1 - std::cos(kappa * s)) / kappa);
+    flat.segment<3>(3 * i) = Vec3(0.3 * s + t, 2.0 * s - 0.1 * t, 0.5 * s);
+  }
+  EXPECT_NEAR(term.value(bent) / (0.5 * kappa * kappa * spec.width * spec.height), 1.0, 0.02);
+  EXPECT_LT(term.value(flat), 1e-20);
+  check_term(term, bent);
+}

@@ -4,9 +4,9 @@
 namespace mgcloth::physics {
 
 enum class MembraneModel { StVK, MassSpring };
-/// Hinge: discrete shells (dihedral angles); Quadratic: the consistent isometric model (IsometricBending);
-/// QuadraticBergou: Bergou et al. 2006's per-hinge quadratic form. bench/RESULTS.md measures each one's realized
-/// rigidity per mesh and direction.
+/// Quadratic (the default): the consistent isometric model (IsometricBending), whose realized rigidity is k_b on
+/// any mesh and in any direction; Hinge: discrete shells (dihedral angles); QuadraticBergou: Bergou et al. 2006's
+/// per-hinge quadratic form. bench/RESULTS.md measures each one's realized rigidity per mesh and direction.
 enum class BendingModel { Hinge, Quadratic, QuadraticBergou, None };
 
 /// Cloth material in SI units. Defaults: a medium-weight plain-woven cotton (about 150 g/m²): in-plane
@@ -18,7 +18,7 @@ struct Material {
   double density = 300.0;           ///< kg/m³ (areal density = density · thickness)
   double bending_stiffness = 5e-6;  ///< N·m
   MembraneModel membrane = MembraneModel::StVK;
-  BendingModel bending = BendingModel::Hinge;
+  BendingModel bending = BendingModel::Quadratic;
   /// Projective Dynamics form only (PDStrainMembrane): the range the strain constraint clamps the deformation
   /// gradient's singular values to (Bouaziz et al. 2014 §5); [1, 1] is as-rigid-as-possible.
   double pd_strain_min = 1.0;
