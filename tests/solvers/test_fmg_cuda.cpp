@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+
 using namespace mgcloth;
 
 namespace {
@@ -90,4 +92,35 @@ TEST(FmgCuda, TheDevicePipelineReachesTheSameMinimizerAsNewtonAndTheCpuFmg) {
       if (key == "directions") total = value;
     EXPECT_GE(total, rep.iterations);
   }
+}
+
+TEST(FmgCuda, WhenTheModelStepFailsEverywhereASteepestDescentStepMovesAndTheSolveConverges) {
+  // A crumpled start, and a line search allowed only the model step (max_line_search_steps 1): where the model
+  // overshoots, every direction fails, also after a fresh matrix, far above the round-off floor. The fallback steps
+  // carry the solve on to its target; it used to end at the first such cycle, "stalled" after 12 cycles at a
+  // relative gradient of 4.9e-5 (above 1e-3 of the start's gradient it would have thrown "no search direction
+  // decreased the energy").
+  auto cloth = test::hanging(400, 1.0 / 30.0);
+  const hierarchy::TriangleHierarchy h = test::small_hierarchy(*cloth);
+  solvers::Problem problem;
+  problem.objective = &cloth->objective;
+  for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));
+  VecX x = cloth->x0;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.003, 0.003);
+  for (Index i = 0; i < x.size(); ++i) x[i] += u(rng);
+  const double e0 = cloth->objective.value(x);
+  solvers::Stop stop;
+  stop.rel_grad = 1e-5;
+  stop.max_iters = 100;
+  auto solver = make({{"backend", "host"}, {"max_line_search_steps", 1}});
+  solvers::SolveReport rep;
+  ASSERT_NO_THROW(rep = solver->minimize(problem, x, stop, nullptr));
+  EXPECT_EQ(rep.status, "converged") << "after " << rep.iterations << ", relative |g| "
+                                     << rep.grad_norm / rep.initial_grad_norm;
+  double fallbacks = 0.0;
+  for (const auto& [key, value] : rep.counters)
+    if (key == "fallbacks") fallbacks = value;
+  EXPECT_GT(fallbacks, 0.0) << "no fallback step was needed: the case no longer tests them";
+  EXPECT_LT(cloth->objective.value(x), e0);
 }

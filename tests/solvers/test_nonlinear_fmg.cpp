@@ -259,8 +259,12 @@ TEST(NonlinearFmg, AClothAtRestIsNotAnErrorForAnySolver) {
   s.cloth->objective.gradient(rest, g);
   const double floor = physics::gradient_roundoff(s.cloth->objective, rest, 4).back().change_max;
   ASSERT_LT(g.norm(), 100 * floor) << "the start is not at rest";
-  for (const std::string name : {"fmg", "newton-direct", "newton-mg"}) {
-    auto solver = by_name(name);
+  // fmg-cuda through the host backend, which runs the device pipeline's kernels on the CPU.
+  const std::vector<std::pair<std::string, Json>> cases = {
+      {"fmg", Json::object()}, {"newton-direct", Json::object()}, {"newton-mg", Json::object()},
+      {"fmg-cuda", {{"backend", "host"}}}};
+  for (const auto& [name, params] : cases) {
+    auto solver = by_name(name, params);
     VecX x;
     solvers::SolveReport rep;
     ASSERT_NO_THROW(rep = run(*solver, s, x, 1e-7, 50)) << name;

@@ -784,7 +784,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
          *Ap = m_Ap.data(), *sv = m_s_vec.data(), *As = m_As.data(), *trial = m_trial.data(),
          *g_trial = m_g_trial.data();
   Level& top = m_levels[0];
-  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, graph_launches = 0;
+  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, graph_launches = 0, fallbacks = 0;
   // Graphs hold only device work: not with the host coarse solve (copies), the adaptive mask (reductions) or the
   // profile's synchronizations.
   const bool use_graphs = m_s.graphs && m_s.coarse_solve == "device" && !(m_s.adaptive_threshold > 0.0) && !m_s.profile;
@@ -955,6 +955,36 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     return true;
   };
 
+  // solvers::steepest_descent_fallback on the device: along r = −g from the step that minimizes the model along it
+  // (a secant guess from the gradient at a small probe where the model has no curvature there), backtracking; the
+  // accepted point is projected as after any step.
+  const auto steepest_descent = [&]() -> bool {
+    const double gg = dot(g, g, n3);
+    if (!(gg > 0.0)) return false;
+    double alpha = 0.0;
+    multiply(top, r, Ad);
+    const double dAd = dot(r, Ad, n3);
+    if (dAd > 0.0) alpha = gg / dAd;
+    if (!(alpha > 0.0)) {
+      const double probe = 1e-6 / std::sqrt(gg);
+      add_scaled(x, probe, r, trial, n3);
+      timed(ms.gradient, [&] { gradient(trial, g_trial); });
+      const double curvature = B::sum(n3, MGCLOTH_LAMBDA(Index i) { return (g_trial[i] - g[i]) * r[i]; }) / probe;
+      alpha = curvature > 0.0 ? gg / curvature : probe;
+    }
+    for (int tries = 0; tries < 60; ++tries, alpha *= 0.5) {
+      add_scaled(x, alpha, r, trial, n3);
+      const double et = evaluate(trial);
+      if (std::isfinite(et) && et <= e - 1e-4 * alpha * gg) {
+        if (!(et < e)) return false;
+        copy(trial, x, n3);
+        refresh(true, et);
+        return std::isfinite(gnorm);
+      }
+    }
+    return false;
+  };
+
   out.status = "max_iters";
   int k = 0;
   bool done = false, force_update = false;
@@ -989,9 +1019,79 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
     }
     if (want_trace) out.trace.push_back({k + 1, e, gnorm, timer.ms(), last_alpha});
     if (!moved && !done) {
+      // No direction decreased the energy (as in solvers::NonlinearFMG): a matrix too stale to help (retry with a
+      // fresh one), the limiting accuracy (round-off), or a model that misleads (steepest descent, then the model's
+      // Newton step).
       if (!fresh_matrix) {
         force_update = true;
         continue;
+      }
+      // The floor is measured on the host objective at x: a few gradients, paid only by a solve that is stuck.
+      VecX x_now;
+      {
+        std::vector<double> xd;
+        m_x.download(xd);
+        from_device_order(m_layout, xd, x_now);
+      }
+      double floor = 0.0;
+      if (physics::at_roundoff_floor(objective, x_now, gnorm, &floor)) {
+        out.status = "stagnated";
+        ++k;
+        break;
+      }
+      if (steepest_descent()) {
+        have_s = false;
+        m_beta = 1.0;
+        ++fallbacks;
+        force_update = true;
+        check(k + 1);
+        continue;
+      }
+      // The Newton step of the model, solved by V-cycles to a residual of 1e-3. Where even its predicted decrease is
+      // below the round-off of the energy sum, the energy cannot tell better from worse: the step is judged by the
+      // gradient norm, and if that fails too the solve has stagnated.
+      {
+        double* c = top.x.data();
+        timed(ms.linear, [&] {
+          copy(r, top.b.data(), n3);
+          fill(c, 0.0, n3);
+          for (int it = 0; it < 30; ++it) {
+            cycle(0, it == 0);
+            residual(top, r, c, d);
+            if (std::sqrt(dot(d, d, n3)) <= 1e-3 * gnorm) break;
+          }
+        });
+        const double predicted = 0.5 * dot(c, r, n3);
+        double magnitude = 0.0;
+        for (const auto& [name, value] : objective.term_values(x_now)) magnitude += std::abs(value);
+        const bool below_noise = !(predicted > 1e-13 * magnitude);
+        add_scaled(x, 1.0, c, trial, n3);
+        if (do_project) project(trial);
+        const double et = evaluate(trial);
+        double gt = 0.0;
+        timed(ms.gradient, [&] {
+          gradient(trial, g_trial);
+          gt = std::sqrt(dot(g_trial, g_trial, n3));
+        });
+        if (std::isfinite(et) && (et < e || (below_noise && gt < gnorm))) {
+          B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
+            x[i] = trial[i];
+            g[i] = g_trial[i];
+            r[i] = -g_trial[i];
+          });
+          e = et;
+          gnorm = gt;
+          have_s = false;
+          ++fallbacks;
+          force_update = true;
+          check(k + 1);
+          continue;
+        }
+        if (below_noise) {
+          out.status = "stagnated";
+          ++k;
+          break;
+        }
       }
       if (gnorm <= 1e-3 * out.initial_grad_norm) {
         out.status = "stalled";
@@ -999,7 +1099,10 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
         break;
       }
       fail_solve("fmg-cuda: no search direction decreased the energy in cycle " + std::to_string(k + 1) + " (|g| = " +
-                 sci(gnorm) + ", relative " + sci(gnorm / out.initial_grad_norm) + ")");
+                 sci(gnorm) + ", relative " + sci(gnorm / out.initial_grad_norm) + ", " +
+                 (floor > 0.0 ? sci(gnorm / floor, 1) : std::string("?")) +
+                 "x the gradient's round-off floor); tried: a fresh Hessian, the V-cycle's correction, a "
+                 "steepest-descent step, the model's Newton step");
     }
   }
   {
@@ -1017,6 +1120,7 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
                   {"rejected_directions", static_cast<double>(rejected)},
                   {"energy_evals", static_cast<double>(energy_evals)},
                   {"matrix_updates", static_cast<double>(matrix_updates)},
+                  {"fallbacks", static_cast<double>(fallbacks)},
                   {"skipped_fraction", relax},
                   {"setup_ms", ms.setup},
                   {"assembly_ms", ms.assembly},

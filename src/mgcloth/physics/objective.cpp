@@ -84,4 +84,11 @@ std::vector<GradientRoundoff> gradient_roundoff(const Objective& objective, cons
   return rows;
 }
 
+bool at_roundoff_floor(const Objective& objective, const VecX& x, double grad_norm, double* floor) {
+  const auto rows = gradient_roundoff(objective, x, 4);
+  const double f = rows.back().change_max;
+  if (floor) *floor = f;
+  return grad_norm <= kRoundoffFloorFactor * f;
+}
+
 }  // namespace mgcloth::physics

@@ -59,4 +59,12 @@ struct GradientRoundoff {
 std::vector<GradientRoundoff> gradient_roundoff(const Objective& objective, const VecX& x, int samples,
                                                 unsigned seed = 1);
 
+/// Whether a solve that can no longer decrease the energy has reached its limiting accuracy: ‖∇E(x)‖ within
+/// kRoundoffFloorFactor times the gradient's round-off floor at x (gradient_roundoff, the largest change over a few
+/// draws), where neither energy differences nor the gradient carry information. Costs a few gradient evaluations:
+/// call it only once a solve is stuck. `floor` receives the floor. (Here rather than in solvers so that the device
+/// pipeline, a module below solvers, uses the same test.)
+inline constexpr double kRoundoffFloorFactor = 10.0;
+bool at_roundoff_floor(const Objective& objective, const VecX& x, double grad_norm, double* floor = nullptr);
+
 }  // namespace mgcloth::physics

@@ -56,13 +56,6 @@ bool update_constant_matrix(const physics::Objective& objective, const VecX& x, 
   return true;
 }
 
-bool at_roundoff_floor(const physics::Objective& objective, const VecX& x, double grad_norm, double* floor) {
-  const auto rows = physics::gradient_roundoff(objective, x, 4);
-  const double f = rows.back().change_max;
-  if (floor) *floor = f;
-  return grad_norm <= kRoundoffFloorFactor * f;
-}
-
 bool steepest_descent_fallback(const physics::Objective& objective, const linalg::BlockMatrix3* A, VecX& x, double& e,
                                VecX& g, double& grad_norm) {
   const VecX d = -g;

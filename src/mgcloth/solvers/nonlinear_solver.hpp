@@ -126,12 +126,9 @@ bool should_stop(double grad_norm, double target, double seconds, const Stop& st
 /// active set changed). Returns whether A changed, i.e. whether factorizations of it must be redone.
 bool update_constant_matrix(const physics::Objective& objective, const VecX& x, bool have, bool project_psd,
                             linalg::BlockMatrix3& A, linalg::BlockMatrix3& scratch);
-/// Whether a solve that can no longer decrease the energy has reached its limiting accuracy: ‖∇E(x)‖ within
-/// kRoundoffFloorFactor times the gradient's round-off floor at x (physics::gradient_roundoff, the largest change
-/// over a few draws), where neither energy differences nor the gradient carry information. Costs a few gradient
-/// evaluations: call it only once a solve is stuck. `floor` receives the floor.
-inline constexpr double kRoundoffFloorFactor = 10.0;
-bool at_roundoff_floor(const physics::Objective& objective, const VecX& x, double grad_norm, double* floor = nullptr);
+/// Whether a stuck solve is at its limiting accuracy (physics::at_roundoff_floor).
+using physics::at_roundoff_floor;
+using physics::kRoundoffFloorFactor;
 /// The fallback of a solve whose own directions all failed: a steepest-descent step with a backtracking line search
 /// from the step that minimizes the quadratic model along −∇E (`A` when non-null, else a secant guess from the
 /// gradient at a small probe). On success x, e, g and grad_norm describe the new point.
