@@ -21,6 +21,14 @@ std::unique_ptr<solvers::NonlinearSolver> make(const Json& params) {
   c.params = params;
   return solvers::make_solver(c, "scene.json", "solver.params");
 }
+
+/// The cloth's problem with its hierarchy's prolongations (the hierarchy must outlive it).
+solvers::Problem problem_of(test::Hanging& cloth, const hierarchy::TriangleHierarchy& h) {
+  solvers::Problem problem;
+  problem.objective = &cloth.objective;
+  for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));
+  return problem;
+}
 }  // namespace
 
 TEST(FmgCuda, RejectsBadParametersByName) {
@@ -58,9 +66,7 @@ TEST(FmgCuda, WithoutAGpuTheSolverCannotBeMadeAndTheMessageSaysWhy) {
 TEST(FmgCuda, TheDevicePipelineReachesTheSameMinimizerAsNewtonAndTheCpuFmg) {
   auto cloth = test::hanging(900, 1.0 / 30.0);
   const hierarchy::TriangleHierarchy h = test::small_hierarchy(*cloth);
-  solvers::Problem problem;
-  problem.objective = &cloth->objective;
-  for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));
+  solvers::Problem problem = problem_of(*cloth, h);
   solvers::Stop stop;
   stop.rel_grad = 1e-10;
   stop.max_iters = 400;
@@ -102,9 +108,7 @@ TEST(FmgCuda, WhenTheModelStepFailsEverywhereASteepestDescentStepMovesAndTheSolv
   // decreased the energy").
   auto cloth = test::hanging(400, 1.0 / 30.0);
   const hierarchy::TriangleHierarchy h = test::small_hierarchy(*cloth);
-  solvers::Problem problem;
-  problem.objective = &cloth->objective;
-  for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));
+  solvers::Problem problem = problem_of(*cloth, h);
   VecX x = cloth->x0;
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-0.003, 0.003);
