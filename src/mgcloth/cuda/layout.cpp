@@ -172,6 +172,7 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
           O.bend_cols.push_back(c);
           O.bend_values.push_back(it.value());
           O.bend_slots.push_back(top.pattern.find(r, c));
+          if (O.bend_slots.back() < 0) throw_error("device layout: bending entry ({}, {}) outside the Hessian pattern", i, it.col());
         }
         O.bend_offsets.push_back(static_cast<Index>(O.bend_cols.size()));
       }
