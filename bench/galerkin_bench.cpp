@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
       break;
     }
     const auto& P = h.prolongation(l);
-    linalg::GalerkinProduct rap(current, P.num_coarse, P.offsets, P.indices, P.weights);
+    linalg::GalerkinProduct rap(current, P);
     linalg::BlockMatrix3 coarse;
     rap.compute(current, coarse);
     Timer t;
@@ -62,10 +62,10 @@ int main(int argc, char** argv) {
     const double ours = t.ms() / repeat;
     // Eigen: the same product on scalar matrices, P ⊗ I₃ expanded.
     std::vector<Eigen::Triplet<double>> trip;
-    for (Index i = 0; i < P.num_fine; ++i)
+    for (Index i = 0; i < P.num_rows; ++i)
       for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k)
         for (int d = 0; d < 3; ++d) trip.emplace_back(3 * i + d, 3 * P.indices[k] + d, P.weights[k]);
-    Eigen::SparseMatrix<double> Ps(3 * P.num_fine, 3 * P.num_coarse);
+    Eigen::SparseMatrix<double> Ps(3 * P.num_rows, 3 * P.num_cols);
     Ps.setFromTriplets(trip.begin(), trip.end());
     const Eigen::SparseMatrix<double> As = current.to_sparse();
     const Eigen::SparseMatrix<double> Pt = Ps.transpose();

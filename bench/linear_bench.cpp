@@ -44,12 +44,12 @@ struct Row {
 
 double relative_residual(const linalg::BlockMatrix3& A, const VecX& b, const VecX& x) { return (b - A * x).norm() / b.norm(); }
 
-Eigen::SparseMatrix<double> scalar_prolongation(const hierarchy::TransferTable& P) {
+Eigen::SparseMatrix<double> scalar_prolongation(const linalg::StencilTable& P) {
   std::vector<Eigen::Triplet<double>> trip;
-  for (Index i = 0; i < P.num_fine; ++i)
+  for (Index i = 0; i < P.num_rows; ++i)
     for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k)
       for (int d = 0; d < 3; ++d) trip.emplace_back(3 * i + d, 3 * P.indices[k] + d, P.weights[k]);
-  Eigen::SparseMatrix<double> S(3 * P.num_fine, 3 * P.num_coarse);
+  Eigen::SparseMatrix<double> S(3 * P.num_rows, 3 * P.num_cols);
   S.setFromTriplets(trip.begin(), trip.end());
   return S;
 }
@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
     }
     const double hierarchy_ms = timer.ms();
     const auto& h = body.hierarchy(s.scene().hierarchy);
-    const auto P = sim::prolongations(h);
+    const auto P = h.levels_for_solvers().prolongations();
 
     std::vector<std::string> methods;
     std::stringstream ss(methods_arg);
@@ -198,7 +198,7 @@ int main(int argc, char** argv) {
     {
       linalg::BlockMatrix3 current = H;
       for (size_t l = 0; l < P.size(); ++l) {
-        linalg::GalerkinProduct rap(current, P[l]->num_coarse, P[l]->offsets, P[l]->indices, P[l]->weights);
+        linalg::GalerkinProduct rap(current, *P[l]);
         linalg::BlockMatrix3 coarse;
         rap.compute(current, coarse);
         timer.reset();

@@ -158,8 +158,8 @@ std::vector<Index> level_colors(const physics::Objective& objective, const hiera
   for (Index l = 0; l < h.num_levels(); ++l) {
     colors.push_back(static_cast<Index>(linalg::color_rows(pattern).size()));
     if (l + 1 == h.num_levels()) break;
-    const hierarchy::TransferTable& P = h.prolongation(l);
-    const linalg::GalerkinProduct rap(pattern, P.num_coarse, P.offsets, P.indices, P.weights);
+    const linalg::StencilTable& P = h.prolongation(l);
+    const linalg::GalerkinProduct rap(pattern, P);
     pattern = rap.coarse_pattern();
   }
   return colors;

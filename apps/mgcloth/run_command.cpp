@@ -20,6 +20,7 @@ struct RunOptions {
   std::string out;
   long long frames = 0;
   std::string solver;
+  std::string energy_form;
   long long threads = 0;
   long long level = 0;
   bool resume = false;
@@ -30,6 +31,7 @@ struct RunOptions {
   CLI::Option* out_option = nullptr;
   CLI::Option* frames_option = nullptr;
   CLI::Option* solver_option = nullptr;
+  CLI::Option* energy_form_option = nullptr;
   CLI::Option* threads_option = nullptr;
   CLI::Option* level_option = nullptr;
 } g_run;
@@ -106,6 +108,7 @@ sim::Scene scene_of_run() {
       add("--solver", "solver.params", "/solver/params", Json::object());
     add("--solver", "solver.name", "/solver/name", g_run.solver);
   }
+  if (g_run.energy_form_option->count()) add("--energy-form", "energy_form", "/energy_form", g_run.energy_form);
   return load_scene_with(file, j, overrides);
 }
 
@@ -175,6 +178,8 @@ void add_run_command(CLI::App& app) {
       cmd->add_option("--frames,-n", g_run.frames, "Number of frames, 0-10000000 (default: the scene's frames)");
   g_run.solver_option =
       cmd->add_option("--solver,-s", g_run.solver, "Solver name (overrides the scene's solver.name)");
+  g_run.energy_form_option = cmd->add_option("--energy-form", g_run.energy_form,
+                                             "elastic or projective (overrides the scene's energy_form)");
   g_run.threads_option = cmd->add_option("--threads,-j", g_run.threads,
                                          "Worker threads, 0-1024; 0: all cores (default: the scene's threads)");
   g_run.level_option =

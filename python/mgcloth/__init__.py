@@ -212,6 +212,8 @@ class Simulation(_mgcloth.Simulator):
         of run(); gravity: (3,) m/s^2; threads: worker threads (0: all cores).
     solver: a name from mgcloth.solver_names() (a different name than the scene's drops the scene's solver params,
         as `mgcloth run --solver` does); solver_params: its parameters; rel_grad, max_iters: its stop criterion.
+    energy_form: "elastic" or "projective", the form of the cloth energy the steps minimize (the pd-* solvers need
+        "projective").
     contact, hierarchy: scene-format dicts of those blocks.
     out: record into this folder as `mgcloth run --out` does (True: the scene's output.dir); formats: the output
         formats ("obj", "glb"); trace: keep every solver iteration (StepStats.trace, trace.csv); resume: continue
@@ -221,7 +223,7 @@ class Simulation(_mgcloth.Simulator):
 
     def __init__(self, scene=None, *, cloths=(), obstacles=(), dt=None, substeps=None, frames=None, gravity=None,
                  threads=None, solver=None, solver_params=None, rel_grad=None, max_iters=None, contact=None,
-                 hierarchy=None, out=None, formats=None, trace=False, resume=False):
+                 hierarchy=None, energy_form=None, out=None, formats=None, trace=False, resume=False):
         d, file, base_dir = _resolve_scene(scene)
         if not isinstance(d.get("cloths", []), (list, tuple)) or not isinstance(d.get("obstacles", []), (list, tuple)):
             # The parser names what is wrong; nothing to merge into.
@@ -236,7 +238,7 @@ class Simulation(_mgcloth.Simulator):
         if all_obstacles or "obstacles" in d:
             d["obstacles"] = all_obstacles
         for key, value in (("time_step", dt), ("substeps", substeps), ("frames", frames), ("threads", threads),
-                           ("contact", contact), ("hierarchy", hierarchy)):
+                           ("contact", contact), ("hierarchy", hierarchy), ("energy_form", energy_form)):
             if value is not None:
                 d[key] = value
         if gravity is not None:

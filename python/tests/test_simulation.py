@@ -80,7 +80,8 @@ def test_every_solver_runs_by_name(small_grid):
         # Two levels for the multilevel solvers on this small mesh.
         try:
             sim = hanging(V, F, solver=name, rel_grad=1e-3, hierarchy={"max_coarse_vertices": 20,
-                                                                         "min_coarse_vertices": 10})
+                                                                         "min_coarse_vertices": 10},
+                          energy_form="projective" if name.startswith("pd-") else "elastic")
             stats = sim.step(2)
         except mgcloth.Error as e:
             # The CUDA solver without a GPU (or in a build without CUDA) says so.
@@ -90,6 +91,9 @@ def test_every_solver_runs_by_name(small_grid):
         assert np.isfinite(sim.x).all(), name
     with pytest.raises(mgcloth.InputError, match=r'solver.name: unknown value "nope" \(expected one of: fmg'):
         hanging(V, F, solver="nope")
+    # The scene chooses the energy form; the PD local/global iterations minimize only the projective one.
+    with pytest.raises(mgcloth.InputError, match=r'solver "pd-fmg" cannot minimize the elastic energy form'):
+        hanging(V, F, solver="pd-fmg")
 
 
 def test_traces_come_back_as_arrays(small_grid):

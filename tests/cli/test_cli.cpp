@@ -712,7 +712,7 @@ TEST_F(Cli, ShellBenchStartsFromACoarserSolveAndRejectsBadStarts) {
   sc.shells.front().level = 3;
   mgcloth::sim::ShellBody body(sc.shells.front(), sc.gravity, sc.file);
   const auto x3 = start["x"].get<std::vector<double>>();
-  ASSERT_EQ(static_cast<mgcloth::Index>(x3.size()), 3 * body.hierarchy().subdivision(1).num_fine);
+  ASSERT_EQ(static_cast<mgcloth::Index>(x3.size()), 3 * body.hierarchy().subdivision(1).num_rows);
   mgcloth::VecX back;
   body.project(1, Eigen::Map<const mgcloth::VecX>(x3.data(), static_cast<mgcloth::Index>(x3.size())), back);
   ASSERT_EQ(back.size(), static_cast<mgcloth::Index>(x2.size()));

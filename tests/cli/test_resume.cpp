@@ -34,6 +34,7 @@ class Resume : public mgcloth::test::TempDirTest, public ::testing::WithParamInt
     std::ofstream(dir / "scene.json") << R"({ "frames": )" << frames << R"(, "cloths": [ { "name": "sheet", "mesh": {
         "generator": "rectangle", "vertices": 500, "unstructured": true },
         "pins": [ { "points": [[0, 1], [1, 1]] } ] } ],
+      "energy_form": ")" << (std::string(c.solver).starts_with("pd-") ? "projective" : "elastic") << R"(",
       "solver": { "name": ")" << c.solver << R"(", "rel_grad": 1e-3, "params": )" << c.params << " } }";
   }
 };

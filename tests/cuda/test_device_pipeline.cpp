@@ -25,7 +25,7 @@ namespace {
 struct Fixture {
   std::unique_ptr<test::Hanging> cloth;
   hierarchy::TriangleHierarchy h;
-  std::vector<const hierarchy::TransferTable*> tables;
+  std::vector<const linalg::StencilTable*> tables;
 };
 
 /// `friction` > 0: the sphere also moves and spins, so that the friction filter has a surface velocity to match.
@@ -195,7 +195,7 @@ TEST(DevicePipeline, GalerkinOperatorsAndSmoothersMatchTheCpuMultigrid) {
   f.cloth->objective.hessian(x, A, true);
   for (size_t l = 0; l + 1 < p.levels().size(); ++l) {
     const auto& P = *f.tables[l];
-    const linalg::GalerkinProduct rap(A, P.num_coarse, P.offsets, P.indices, P.weights);
+    const linalg::GalerkinProduct rap(A, P);
     linalg::BlockMatrix3 Ac;
     rap.compute(A, Ac);
     const auto& level = p.levels()[l + 1];

@@ -32,9 +32,9 @@ VecX random_points(Index n, unsigned seed) {
 ReverseRuleCounts expect_exact_projections(const QuadMesh& coarse, const SubdivisionStep& step,
                                            const std::string& what) {
   ReverseRuleCounts counts{};
-  const ProjectionTable Q = reverse_subdivision(coarse, step, &counts);
-  EXPECT_EQ(Q.num_coarse, coarse.num_vertices()) << what;
-  EXPECT_EQ(Q.num_fine, step.fine.num_vertices()) << what;
+  const linalg::StencilTable Q = reverse_subdivision(coarse, step, &counts);
+  EXPECT_EQ(Q.num_rows, coarse.num_vertices()) << what;
+  EXPECT_EQ(Q.num_cols, step.fine.num_vertices()) << what;
   // Observed: 9 on grids (a ghost row substitutes rows within the same fine one-ring), 2n + 1 = 11 at valence 5,
   // 12 beside the one-cell notch.
   EXPECT_LE(Q.max_row_length(), 12) << what;
@@ -49,7 +49,7 @@ ReverseRuleCounts expect_exact_projections(const QuadMesh& coarse, const Subdivi
     EXPECT_LE((back_q - q).cwiseAbs().maxCoeff(), 1e-12 * scale) << what << ": Q S != I";
     EXPECT_LE((back_p - q).cwiseAbs().maxCoeff(), 1e-12 * scale) << what << ": P S != I";
   }
-  for (Index i = 0; i < Q.num_coarse; ++i) {
+  for (Index i = 0; i < Q.num_rows; ++i) {
     double s = 0.0;
     for (Index k = Q.offsets[i]; k < Q.offsets[i + 1]; ++k) s += Q.weights[k];
     EXPECT_NEAR(s, 1.0, 1e-12) << what << ": row " << i;
@@ -189,7 +189,7 @@ TEST(ReverseSubdivision, SparseAndSmallerThanTheLeastSquaresFactor) {
   ASSERT_EQ(3 * h.mesh(3).num_vertices(), 3675);
   ASSERT_EQ(3 * h.mesh(2).num_vertices(), 1083);
   for (int l : {2, 3}) {
-    const ProjectionTable Q = reverse_subdivision(h.mesh(l), h.step(l));
+    const linalg::StencilTable Q = reverse_subdivision(h.mesh(l), h.step(l));
     const LeastSquaresProjection P(h.subdivision(l));
     std::cout << "level " << l + 1 << " -> " << l << ": Q " << Q.num_entries() << " entries, max row "
               << Q.max_row_length() << ", " << Q.memory_bytes() << " bytes; LS factor " << P.factor_nonzeros()

@@ -57,7 +57,7 @@ void expect_matches_opensubdiv(const QuadMesh& coarse) {
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(fine[3 * i + k], dst[child].p[k], 1e-14) << "fine point " << i;
   }
   // Partition of unity: every row of S sums to one.
-  for (Index i = 0; i < step.subdivision.num_fine; ++i) {
+  for (Index i = 0; i < step.subdivision.num_rows; ++i) {
     double s = 0.0;
     for (Index k = step.subdivision.offsets[i]; k < step.subdivision.offsets[i + 1]; ++k) s += step.subdivision.weights[k];
     EXPECT_NEAR(s, 1.0, 1e-15);

@@ -71,9 +71,9 @@ void expect_structure(const mesh::TriMesh& finest, const TriangleHierarchy& h, c
     EXPECT_EQ(copy.tris, c.mesh.tris);  // CCW, nothing flipped
     EXPECT_EQ(mesh::build_topology(c.mesh).boundary_loops.size(), loops) << "level " << l;
     // Partition of unity, non-negative weights.
-    const TransferTable& P = h.prolongation(l - 1);
-    ASSERT_EQ(P.num_fine, nf);
-    ASSERT_EQ(P.num_coarse, nc);
+    const linalg::StencilTable& P = h.prolongation(l - 1);
+    ASSERT_EQ(P.num_rows, nf);
+    ASSERT_EQ(P.num_cols, nc);
     for (Index i = 0; i < nf; ++i) {
       double sum = 0.0;
       for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k) {
@@ -268,7 +268,7 @@ void expect_stitched(const TriangleHierarchy& h) {
     }
     EXPECT_GT(stitched, 0) << "level " << l;
     if (l == 0) continue;
-    const TransferTable& P = h.prolongation(l - 1);
+    const linalg::StencilTable& P = h.prolongation(l - 1);
     VecX fine;
     P.apply(as_stacked(m.x), fine);  // the copies of a stitched point share x on every level
     const mesh::TriMesh& f = h.level(l - 1).mesh;
@@ -294,10 +294,10 @@ TEST(TriangleHierarchy, TwoPanelStitchedTube) {
     expect_stitched(t.h);
     // Panels overlap in material space, yet each vertex interpolates from its own panel only.
     for (Index l = 0; l + 1 < t.h.num_levels(); ++l) {
-      const TransferTable& P = t.h.prolongation(l);
+      const linalg::StencilTable& P = t.h.prolongation(l);
       const auto& fine = mesh::build_topology(t.h.level(l).mesh);
       const auto& coarse = t.h.level(l + 1);
-      for (Index i = 0; i < P.num_fine; ++i)
+      for (Index i = 0; i < P.num_rows; ++i)
         for (Index k = P.offsets[i]; k < P.offsets[i + 1]; ++k)
           EXPECT_EQ(fine.component[coarse.fine_index[P.indices[k]]], fine.component[i]);
     }

@@ -64,11 +64,15 @@ TEST(LevelObjectives, SameTermsTotalMassAndNoElasticEnergyAtRest) {
     EXPECT_NE(std::find(names.begin(), names.end(), projective ? "contact_pd" : "contact"), names.end());
     EXPECT_NE(std::find(names.begin(), names.end(), "attachment"), names.end());
     const double fine_mass = body.mass().sum();
-    const auto injection = sim::injections(h);
-    ASSERT_EQ(injection.size(), levels.size());
+    const hierarchy::Hierarchy solver_levels = body.solver_hierarchy(scene.hierarchy, true);
+    ASSERT_EQ(solver_levels.num_levels(), levels.size() + 1);
     for (size_t l = 0; l < levels.size(); ++l) {
       const auto& level = h.level(static_cast<Index>(l + 1));
-      EXPECT_EQ(injection[l], &level.fine_index);
+      EXPECT_EQ(solver_levels.levels[l + 1].objective, levels[l]);
+      // The levels' vertex sets are nested: the projection of iterates is injection.
+      VecX projected;
+      solver_levels.levels[l].project(l == 0 ? body.x() : inject(body.x(), h.level(static_cast<Index>(l)).to_finest), projected);
+      EXPECT_EQ(projected, inject(body.x(), level.to_finest)) << "level " << l + 1;
       EXPECT_EQ(levels[l]->num_vertices(), level.mesh.num_vertices());
       EXPECT_EQ(term_names(*levels[l]), names) << "level " << l + 1;
       const auto* inertia = find_term<physics::InertiaTerm>(*levels[l]);

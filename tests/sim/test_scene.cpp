@@ -46,6 +46,27 @@ TEST(Scene, ASceneWithoutAStopRuleGetsTheShippedScenesAccuracy) {
   EXPECT_EQ(resolved["cloths"][0]["material"]["bending"], "quadratic");
 }
 
+// The scene chooses the energy form; a solver that cannot minimize it is refused with what to do instead.
+TEST(Scene, TheEnergyFormIsTheScenesAndASolverThatCannotMinimizeItIsRefused) {
+  EXPECT_EQ(sim::parse_scene(minimal(), "scene.json", ".").energy_form, physics::EnergyForm::Elastic);
+  Json j = minimal();
+  j["solver"] = {{"name", "pd-fmg"}};
+  const std::string e = error_of(j);
+  EXPECT_NE(e.find("scene.json: solver \"pd-fmg\" cannot minimize the elastic energy form, only the projective one: "
+                   "set \"energy_form\": \"projective\""), std::string::npos) << e;
+  j["energy_form"] = "projective";
+  const auto s = sim::parse_scene(j, "scene.json", ".");
+  EXPECT_EQ(s.energy_form, physics::EnergyForm::Projective);
+  EXPECT_EQ(sim::to_json(s)["energy_form"], "projective");
+  j["solver"]["name"] = "newton-direct";  // Newton minimizes either form
+  EXPECT_EQ(sim::parse_scene(j, "scene.json", ".").energy_form, physics::EnergyForm::Projective);
+  j["energy_form"] = "projected";
+  EXPECT_NE(error_of(j).find("energy_form"), std::string::npos) << error_of(j);
+  j = Json::parse(R"({ "energy_form": "projective", "shells": [ { "control_mesh": { "generator": "rectangle",
+                       "width": 1.0, "height": 1.0, "cells_u": 2, "cells_v": 2 } } ] })");
+  EXPECT_NE(error_of(j).find("energy_form: shells have no projective form"), std::string::npos) << error_of(j);
+}
+
 TEST(Scene, UnknownKeysAreRejectedByPath) {
   Json j = minimal();
   j["cloths"][0]["material"] = {{"youngs_modulis", 1e6}};

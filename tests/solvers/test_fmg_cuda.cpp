@@ -26,7 +26,7 @@ std::unique_ptr<solvers::NonlinearSolver> make(const Json& params) {
 solvers::Problem problem_of(test::Hanging& cloth, const hierarchy::TriangleHierarchy& h) {
   solvers::Problem problem;
   problem.objective = &cloth.objective;
-  for (Index l = 0; l + 1 < h.num_levels(); ++l) problem.prolongations.push_back(&h.prolongation(l));
+  problem.hierarchy = h.levels_for_solvers();
   return problem;
 }
 }  // namespace

@@ -53,8 +53,8 @@ std::unique_ptr<System> cloth_system(Index vertices) {
   return s;
 }
 
-std::vector<const hierarchy::TransferTable*> tables(const hierarchy::TriangleHierarchy& h) {
-  std::vector<const hierarchy::TransferTable*> p;
+std::vector<const linalg::StencilTable*> tables(const hierarchy::TriangleHierarchy& h) {
+  std::vector<const linalg::StencilTable*> p;
   for (Index l = 0; l + 1 < h.num_levels(); ++l) p.push_back(&h.prolongation(l));
   return p;
 }

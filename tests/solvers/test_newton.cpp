@@ -60,7 +60,7 @@ TEST(Newton, EveryLinearSolverReachesTheSameMinimizer) {
   auto p = hanging(2500, 1.0 / 30.0);
   const auto h = hierarchy::build_triangle_hierarchy(p->mesh, {});
   ASSERT_GE(h.num_levels(), 3);
-  std::vector<const hierarchy::TransferTable*> tables;
+  std::vector<const linalg::StencilTable*> tables;
   for (Index l = 0; l + 1 < h.num_levels(); ++l) tables.push_back(&h.prolongation(l));
   solvers::Stop stop;
   stop.rel_grad = 1e-7;
@@ -72,7 +72,7 @@ TEST(Newton, EveryLinearSolverReachesTheSameMinimizer) {
     EXPECT_EQ(newton.needs_hierarchy(), method == "pcg-mg" || method == "mg");
     solvers::Problem problem;
     problem.objective = &p->objective;
-    if (newton.needs_hierarchy()) problem.prolongations = tables;
+    if (newton.needs_hierarchy()) problem.hierarchy = hierarchy::from_prolongations(tables);
     VecX x = p->x0;
     const auto rep = newton.minimize(problem, x, stop, nullptr);
     EXPECT_TRUE(rep.converged) << method << ": " << rep.status;

@@ -17,7 +17,7 @@ namespace {
 struct Step {
   std::unique_ptr<test::Hanging> cloth;
   hierarchy::TriangleHierarchy h;
-  std::vector<const hierarchy::TransferTable*> tables;
+  std::vector<const linalg::StencilTable*> tables;
 };
 
 Step make_step(Index vertices) {
@@ -43,7 +43,7 @@ solvers::SolveReport run(solvers::NonlinearSolver& solver, const Step& s, VecX& 
                          solvers::Trace* trace = nullptr) {
   solvers::Problem problem;
   problem.objective = &s.cloth->objective;
-  if (solver.needs_hierarchy()) problem.prolongations = s.tables;
+  if (solver.needs_hierarchy()) problem.hierarchy = hierarchy::from_prolongations(s.tables);
   x = s.cloth->x0;
   solvers::Stop stop;
   stop.rel_grad = rel_grad;
@@ -207,7 +207,7 @@ TEST(NonlinearFmg, ConstantMatrixIsFactoredOnceAcrossSolves) {
   solvers::NonlinearFMG fmg(p);
   solvers::Problem problem;
   problem.objective = &quadratic;
-  problem.prolongations = s.tables;
+  problem.hierarchy = hierarchy::from_prolongations(s.tables);
   solvers::Stop stop;
   stop.rel_grad = 1e-8;
   for (int step = 0; step < 2; ++step) {
@@ -224,7 +224,10 @@ TEST(NonlinearFmg, FactoryNamesAndParameters) {
     // fmg-cuda on its host backend: the CUDA one is refused where there is no GPU (FmgCuda.* tests).
     auto s = name == "fmg-cuda" ? by_name(name, {{"backend", "host"}}) : by_name(name);
     EXPECT_EQ(s->name(), name);
-    EXPECT_EQ(s->projective(), name.starts_with("pd-")) << name;
+    // The PD presets need the PD form's constant matrix; the device pipeline has kernels for the elastic terms.
+    EXPECT_EQ(s->can_minimize(physics::EnergyForm::Elastic), !name.starts_with("pd-")) << name;
+    EXPECT_EQ(s->can_minimize(physics::EnergyForm::Projective), name != "fmg-cuda") << name;
+    EXPECT_EQ(s->energy_forms().front() == physics::EnergyForm::Projective, name.starts_with("pd-")) << name;
   }
   EXPECT_TRUE(by_name("fmg")->needs_hierarchy());
   EXPECT_FALSE(by_name("newton-direct")->needs_hierarchy());

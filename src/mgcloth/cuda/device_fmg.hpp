@@ -1,5 +1,5 @@
 #pragma once
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/physics/objective.hpp>
 
 #include <memory>
@@ -66,7 +66,7 @@ class DeviceFmg {
   /// obstacles (the simulator's Problem::project). Throws InputError for an objective the pipeline cannot take and
   /// SolveError when the solve diverges, with the CPU solver's messages.
   virtual Outcome minimize(const physics::Objective& objective,
-                           const std::vector<const hierarchy::TransferTable*>& prolongations, bool project, VecX& x,
+                           const std::vector<const linalg::StencilTable*>& prolongations, bool project, VecX& x,
                            const Limits& limits, bool trace) = 0;
   /// The time step's end on the device, after minimize() on the same objective (what sim::ClothBody::finish_step
   /// does on the CPU): the solution projected out of the obstacles (§4.5), v = (x − x_old)/h, and the friction

@@ -68,7 +68,7 @@ ElementGroup group_elements(const Term& term, const std::vector<Index>& inv, con
 
 }  // namespace
 
-Layout build_layout(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations) {
+Layout build_layout(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations) {
   Layout L;
   L.levels.resize(prolongations.size() + 1);
   linalg::BlockMatrix3 original = objective.hessian_pattern();  // this level's pattern in the problem's numbering
@@ -79,20 +79,20 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
     top.pattern = renumbered(original, inverse(top.perm));
   }
   for (size_t l = 0; l < prolongations.size(); ++l) {
-    const hierarchy::TransferTable& P = *prolongations[l];
+    const linalg::StencilTable& P = *prolongations[l];
     LevelLayout& fine = L.levels[l];
     LevelLayout& coarse = L.levels[l + 1];
-    if (P.num_fine != fine.n)
-      throw_error("device layout: level {} has {} vertices but its prolongation expects {}", l, fine.n, P.num_fine);
+    if (P.num_rows != fine.n)
+      throw_error("device layout: level {} has {} vertices but its prolongation expects {}", l, fine.n, P.num_rows);
     // The coarse pattern (in the problem's numbering) decides the coarse coloring, hence the coarse device numbering.
-    const linalg::GalerkinProduct symbolic(original, P.num_coarse, P.offsets, P.indices, P.weights);
+    const linalg::GalerkinProduct symbolic(original, P);
     original = symbolic.coarse_pattern();
-    coarse.n = P.num_coarse;
+    coarse.n = P.num_cols;
     order_by_color(original, coarse.perm, coarse.color_offsets);
     const std::vector<Index> inv_c = inverse(coarse.perm);
-    hierarchy::TransferTable Pd;
-    Pd.num_fine = P.num_fine;
-    Pd.num_coarse = P.num_coarse;
+    linalg::StencilTable Pd;
+    Pd.num_rows = P.num_rows;
+    Pd.num_cols = P.num_cols;
     Pd.offsets.assign(1, 0);
     for (Index r = 0; r < fine.n; ++r) {
       const Index i = fine.perm[static_cast<size_t>(r)];
@@ -105,7 +105,7 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
     Pd.build_transpose();
     fine.P = {Pd.offsets, Pd.indices, Pd.weights};
     fine.Pt = {Pd.t_offsets, Pd.t_indices, Pd.t_weights};
-    const linalg::GalerkinProduct rap(fine.pattern, Pd.num_coarse, Pd.offsets, Pd.indices, Pd.weights);
+    const linalg::GalerkinProduct rap(fine.pattern, Pd);
     coarse.pattern = rap.coarse_pattern();
     fine.rap_offsets = rap.term_offsets();
     for (const auto& t : rap.terms()) {

@@ -1,6 +1,6 @@
 #pragma once
 #include <mgcloth/geometry/sdf_kernels.hpp>
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/linalg/block_matrix.hpp>
 #include <mgcloth/physics/objective.hpp>
 
@@ -106,7 +106,7 @@ double relative_difference(const ScalarCsr& C, const linalg::BlockMatrix3& patte
 
 /// Builds the layout of `objective` (which must be finalized) and its hierarchy. Throws InputError naming a term
 /// that the device pipeline does not implement (seams, mass-spring membrane, Projective Dynamics terms).
-Layout build_layout(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations);
+Layout build_layout(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations);
 
 /// The objective's current step data in the layout's numbering.
 StepData step_data(const physics::Objective& objective, const Layout& layout);

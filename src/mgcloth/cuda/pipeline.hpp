@@ -57,7 +57,7 @@ class Pipeline final : public DeviceFmg {
     double rho = 0.0;                ///< Chebyshev: spectral radius of one symmetric sweep (estimated once)
   };
 
-  void build(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations) {
+  void build(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations) {
     m_layout = build_layout(objective, prolongations);
     m_objective = &objective;
     m_prolongations = prolongations;
@@ -717,14 +717,14 @@ class Pipeline final : public DeviceFmg {
 
   // ---- The nonlinear FMG (Wang 2018 §4.2, solvers::NonlinearFMG with its default schedule) ---------------------
 
-  Outcome minimize(const physics::Objective& objective, const std::vector<const hierarchy::TransferTable*>& prolongations,
+  Outcome minimize(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations,
                    bool do_project, VecX& x_host, const Limits& stop, bool want_trace) override;
 
  private:
   FmgSettings m_s;
   Layout m_layout;
   const physics::Objective* m_objective = nullptr;
-  std::vector<const hierarchy::TransferTable*> m_prolongations;
+  std::vector<const linalg::StencilTable*> m_prolongations;
   Index m_n = 0;
   std::vector<Level> m_levels;
   Buf<double> m_mass, m_tri_dm, m_tri_at, m_hinge_c, m_hinge_k, m_pin_k, m_contact_k, m_y, m_pin_targets;
@@ -750,7 +750,7 @@ class Pipeline final : public DeviceFmg {
 
 template <class B>
 Outcome Pipeline<B>::minimize(const physics::Objective& objective,
-                              const std::vector<const hierarchy::TransferTable*>& prolongations, bool do_project,
+                              const std::vector<const linalg::StencilTable*>& prolongations, bool do_project,
                               VecX& x_host, const Limits& stop, bool want_trace) {
   Timer timer;
   struct Phases {

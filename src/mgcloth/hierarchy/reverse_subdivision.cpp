@@ -199,34 +199,13 @@ std::optional<Row> face_rule(Index v, const mesh::QuadMesh& coarse, const Coarse
 
 }  // namespace
 
-Index ProjectionTable::max_row_length() const {
-  Index m = 0;
-  for (Index i = 0; i < num_coarse; ++i) m = std::max(m, offsets[i + 1] - offsets[i]);
-  return m;
-}
-
-void ProjectionTable::apply(const VecX& fine3, VecX& coarse3) const {
-  if (fine3.size() != 3 * static_cast<Eigen::Index>(num_fine))
-    throw_error("ProjectionTable::apply: fine vector has {} entries, expected {}", fine3.size(), 3 * num_fine);
-  coarse3.resize(3 * static_cast<Eigen::Index>(num_coarse));
-  parallel_for(num_coarse, [&](Index i) {
-    Vec3 s = Vec3::Zero();
-    for (Index k = offsets[i]; k < offsets[i + 1]; ++k) s += weights[k] * vertex(fine3, indices[k]);
-    vertex(coarse3, i) = s;
-  }, 2048);
-}
-
-std::size_t ProjectionTable::memory_bytes() const {
-  return offsets.size() * sizeof(Index) + indices.size() * sizeof(Index) + weights.size() * sizeof(double);
-}
-
-ProjectionTable reverse_subdivision(const mesh::QuadMesh& coarse, const SubdivisionStep& step,
+linalg::StencilTable reverse_subdivision(const mesh::QuadMesh& coarse, const SubdivisionStep& step,
                                     ReverseRuleCounts* rule_counts) {
   const Index nc = coarse.num_vertices(), nf = step.fine.num_vertices();
-  if (step.subdivision.num_coarse != nc || step.subdivision.num_fine != nf ||
+  if (step.subdivision.num_cols != nc || step.subdivision.num_rows != nf ||
       static_cast<Index>(step.kind.size()) != nf || static_cast<Index>(step.parent.size()) != nf)
     throw_error("reverse subdivision: the step ({} coarse, {} fine points, {} kinds) was not made from this mesh "
-                "({} points)", step.subdivision.num_coarse, nf, step.kind.size(), nc);
+                "({} points)", step.subdivision.num_cols, nf, step.kind.size(), nc);
   const CoarseTopology t = connect(coarse);
   const FinePoints fine = index_fine_points(coarse, step);
   std::vector<Row> rows(static_cast<size_t>(nc));
@@ -264,9 +243,9 @@ ProjectionTable reverse_subdivision(const mesh::QuadMesh& coarse, const Subdivis
     }
   }
 
-  ProjectionTable Q;
-  Q.num_coarse = nc;
-  Q.num_fine = nf;
+  linalg::StencilTable Q;
+  Q.num_rows = nc;
+  Q.num_cols = nf;
   Q.offsets.assign(1, 0);
   for (Index v = 0; v < nc; ++v) {
     if (!done[v]) throw_unreached(v, t, fine);
@@ -289,26 +268,26 @@ struct LeastSquaresProjection::Impl {
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt;
 };
 
-LeastSquaresProjection::LeastSquaresProjection(const TransferTable& S)
-    : m_impl(std::make_unique<Impl>()), m_num_coarse(S.num_coarse), m_num_fine(S.num_fine) {
+LeastSquaresProjection::LeastSquaresProjection(const linalg::StencilTable& S)
+    : m_impl(std::make_unique<Impl>()), m_num_coarse(S.num_cols), m_num_fine(S.num_rows) {
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(S.indices.size());
-  for (Index i = 0; i < S.num_fine; ++i)
+  for (Index i = 0; i < S.num_rows; ++i)
     for (Index k = S.offsets[i]; k < S.offsets[i + 1]; ++k) entries.emplace_back(i, S.indices[k], S.weights[k]);
-  m_impl->S.resize(S.num_fine, S.num_coarse);
+  m_impl->S.resize(S.num_rows, S.num_cols);
   m_impl->S.setFromTriplets(entries.begin(), entries.end());
   const Eigen::SparseMatrix<double> StS = m_impl->S.transpose() * m_impl->S;
   m_impl->llt.compute(StS);
   // Rounding can leave a tiny positive pivot where SᵀS is singular (on the cube, q = ±1 alternating has S q = 0),
   // so a pivot far below the diagonal's scale counts as a failure too.
   bool singular = m_impl->llt.info() != Eigen::Success;
-  if (!singular && S.num_coarse > 0) {
+  if (!singular && S.num_cols > 0) {
     const VecX pivots = m_impl->llt.matrixL().nestedExpression().diagonal();
     singular = pivots.cwiseAbs2().minCoeff() < 1e-12 * StS.diagonal().maxCoeff();
   }
   if (singular)
     throw_error("least-squares projection: SᵀS ({0} x {0}) is singular, the subdivision matrix is not injective "
-                "(no projection with P S = I exists)", S.num_coarse);
+                "(no projection with P S = I exists)", S.num_cols);
 }
 
 LeastSquaresProjection::~LeastSquaresProjection() = default;

@@ -8,21 +8,6 @@
 
 namespace mgcloth::hierarchy {
 
-/// A sparse linear map from a fine level's control points to the next coarser level's, as CSR rows (one row per
-/// coarse point: the fine points and weights it is made from), applied to x, y and z alike.
-struct ProjectionTable {
-  Index num_coarse = 0, num_fine = 0;
-  std::vector<Index> offsets, indices;  ///< offsets.size() == num_coarse + 1; indices are fine points
-  std::vector<double> weights;
-
-  Index num_entries() const { return static_cast<Index>(indices.size()); }
-  Index max_row_length() const;
-  /// coarse3 = (Q (x) I_3) fine3, xyz interleaved: 3 * num_fine entries in, 3 * num_coarse out.
-  void apply(const VecX& fine3, VecX& coarse3) const;
-  /// The three CSR arrays.
-  std::size_t memory_bytes() const;
-};
-
 /// Which rule reconstructed a coarse point in reverse_subdivision() (Kopaničáková 2019, §5.3.2 and App. A-C).
 enum class ReverseRule : int {
   kOrdinary,       ///< interior, valence 4: eq. (5.19) with (5.21)
@@ -49,7 +34,7 @@ using ReverseRuleCounts = std::array<Index, static_cast<std::size_t>(ReverseRule
 /// of valence-3 points only, such as a cube: (5.20) is singular and no neighbour is ever reconstructed); callers
 /// fall back to LeastSquaresProjection. `rule_counts`, when given, receives how many coarse points each
 /// ReverseRule reconstructed.
-ProjectionTable reverse_subdivision(const mesh::QuadMesh& coarse, const SubdivisionStep& step,
+linalg::StencilTable reverse_subdivision(const mesh::QuadMesh& coarse, const SubdivisionStep& step,
                                     ReverseRuleCounts* rule_counts = nullptr);
 
 /// The least-squares projection of Kopaničáková 2019, eq. (5.18): P = (SᵀS)⁻¹Sᵀ, the Moore-Penrose pseudo-inverse
@@ -57,7 +42,7 @@ ProjectionTable reverse_subdivision(const mesh::QuadMesh& coarse, const Subdivis
 /// scalar SᵀS, done once. Throws Error when SᵀS is not positive definite (S not injective).
 class LeastSquaresProjection {
  public:
-  explicit LeastSquaresProjection(const TransferTable& S);
+  explicit LeastSquaresProjection(const linalg::StencilTable& S);
   ~LeastSquaresProjection();
   LeastSquaresProjection(LeastSquaresProjection&&) noexcept;
   LeastSquaresProjection& operator=(LeastSquaresProjection&&) noexcept;

@@ -149,9 +149,9 @@ SubdivisionStep subdivide(const mesh::QuadMesh& coarse) {
   for (size_t i = 0; i < rows.size(); ++i)
     if (new_id[i] == 0) new_id[i] = kept++;
 
-  TransferTable& S = out.subdivision;
-  S.num_fine = kept;
-  S.num_coarse = nv;
+  linalg::StencilTable& S = out.subdivision;
+  S.num_rows = kept;
+  S.num_cols = nv;
   S.offsets.assign(1, 0);
   out.kind.reserve(kept);
   out.parent.reserve(kept);

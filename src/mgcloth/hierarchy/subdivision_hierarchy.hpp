@@ -1,5 +1,5 @@
 #pragma once
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/mesh/quad_mesh.hpp>
 
 #include <vector>
@@ -10,7 +10,7 @@ namespace mgcloth::hierarchy {
 /// (Kopaničáková 2019, eq. 5.11), as a weight table whose rows are the fine control points.
 struct SubdivisionStep {
   mesh::QuadMesh fine;
-  TransferTable subdivision;
+  linalg::StencilTable subdivision;
   /// For each fine point, how it was made: 0 vertex point (parent = coarse vertex), 1 edge point (parent = coarse
   /// edge, as the pair of its end points), 2 face point (parent = coarse face). Reverse subdivision reads these.
   std::vector<char> kind;
@@ -39,7 +39,7 @@ class SubdivisionHierarchy {
   const mesh::QuadMesh& mesh(int level) const { return m_meshes[static_cast<size_t>(level)]; }
   const mesh::QuadMesh& finest() const { return m_meshes.back(); }
   /// S_l^{l+1}: from level `level` to level `level + 1` (transpose built).
-  const TransferTable& subdivision(int level) const { return m_steps[static_cast<size_t>(level)].subdivision; }
+  const linalg::StencilTable& subdivision(int level) const { return m_steps[static_cast<size_t>(level)].subdivision; }
   const SubdivisionStep& step(int level) const { return m_steps[static_cast<size_t>(level)]; }
 
  private:

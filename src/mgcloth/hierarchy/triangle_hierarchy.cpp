@@ -370,7 +370,7 @@ class TriangleLocator {
 };
 
 /// Prolongation from `coarse` to `fine` (Wang 2018, eq. 1); see build_triangle_hierarchy for the rules.
-TransferTable build_prolongation(const Level& fine, const Level& coarse, const mesh::Topology& fine_topo) {
+linalg::StencilTable build_prolongation(const Level& fine, const Level& coarse, const mesh::Topology& fine_topo) {
   const Index nf = fine.mesh.num_vertices(), ncoarse = coarse.mesh.num_vertices();
   std::vector<Index> coarse_of(nf, -1);
   for (Index c = 0; c < ncoarse; ++c) coarse_of[coarse.fine_index[c]] = c;
@@ -415,9 +415,9 @@ TransferTable build_prolongation(const Level& fine, const Level& coarse, const m
       if (w[k] != 0.0) rows[i].push_back({coarse.mesh.tris[t][k], w[k]});
   }
 
-  TransferTable table;
-  table.num_fine = nf;
-  table.num_coarse = ncoarse;
+  linalg::StencilTable table;
+  table.num_rows = nf;
+  table.num_cols = ncoarse;
   table.offsets.assign(1, 0);
   for (auto& row : rows) {
     std::sort(row.begin(), row.end());
@@ -497,7 +497,7 @@ TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const Hi
   levels[0].fine_index.resize(n0);
   for (Index i = 0; i < n0; ++i) levels[0].fine_index[i] = i;
   levels[0].to_finest = levels[0].fine_index;
-  std::vector<TransferTable> prolongations;
+  std::vector<linalg::StencilTable> prolongations;
 
   while (levels.back().mesh.num_vertices() > params.max_coarse_vertices) {
     const Level& fine = levels.back();
@@ -542,6 +542,24 @@ TriangleHierarchy build_triangle_hierarchy(const mesh::TriMesh& finest, const Hi
     levels.push_back(std::move(coarse));
   }
   return TriangleHierarchy(std::move(levels), std::move(prolongations));
+}
+
+Hierarchy TriangleHierarchy::levels_for_solvers() const {
+  Hierarchy h;
+  for (Index l = 0; l < num_levels(); ++l) {
+    Hierarchy::Level level;
+    level.num_points = m_levels[l].mesh.num_vertices();
+    if (l + 1 < num_levels()) {
+      level.prolongation = &m_prolongations[l];
+      const std::vector<Index>* inj = &m_levels[l + 1].fine_index;
+      level.project = [inj](const VecX& fine, VecX& coarse) {
+        coarse.resize(3 * static_cast<Index>(inj->size()));
+        for (size_t i = 0; i < inj->size(); ++i) coarse.segment<3>(3 * static_cast<Index>(i)) = fine.segment<3>(3 * (*inj)[i]);
+      };
+    }
+    h.levels.push_back(std::move(level));
+  }
+  return h;
 }
 
 }  // namespace mgcloth::hierarchy

@@ -1,5 +1,6 @@
 #pragma once
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/hierarchy/hierarchy.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/mesh/tri_mesh.hpp>
 
 #include <cstdint>
@@ -28,18 +29,21 @@ struct Level {
 class TriangleHierarchy {
  public:
   TriangleHierarchy() = default;
-  TriangleHierarchy(std::vector<Level> levels, std::vector<TransferTable> prolongations)
+  TriangleHierarchy(std::vector<Level> levels, std::vector<linalg::StencilTable> prolongations)
       : m_levels(std::move(levels)), m_prolongations(std::move(prolongations)) {}
 
   const std::vector<Level>& levels() const { return m_levels; }
   Index num_levels() const { return static_cast<Index>(m_levels.size()); }
   const Level& level(Index l) const { return m_levels[l]; }
   /// I_{l+1}^l of Wang 2018 eq. (1): from level l+1 (coarse) to level l (fine); l in [0, num_levels() - 1).
-  const TransferTable& prolongation(Index l) const { return m_prolongations[l]; }
+  const linalg::StencilTable& prolongation(Index l) const { return m_prolongations[l]; }
+  /// Its levels as a solver sees them: prolongations, and injection (the vertex sets are nested, so it is an exact
+  /// projection of iterates) as each level's projection. No objectives, least-squares projections or patches.
+  Hierarchy levels_for_solvers() const;
 
  private:
   std::vector<Level> m_levels;
-  std::vector<TransferTable> m_prolongations;
+  std::vector<linalg::StencilTable> m_prolongations;
 };
 
 /// Builds the hierarchy in material space (Wang 2018, Appendix B): per level, keep the corner vertices of each

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/linalg/block_matrix.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 
 namespace mgcloth::linalg {
 
@@ -13,6 +14,9 @@ class GalerkinProduct {
   GalerkinProduct() = default;
   GalerkinProduct(const BlockMatrix3& fine_pattern, Index num_coarse, const std::vector<Index>& p_offsets,
                   const std::vector<Index>& p_indices, const std::vector<double>& p_weights);
+  /// P a prolongation: rows the fine vertices, columns the coarse ones.
+  GalerkinProduct(const BlockMatrix3& fine_pattern, const StencilTable& P)
+      : GalerkinProduct(fine_pattern, P.num_cols, P.offsets, P.indices, P.weights) {}
 
   /// Fills coarse (which gets the coarse pattern on first use) from A, which must have the fine pattern.
   void compute(const BlockMatrix3& A, BlockMatrix3& coarse) const;

@@ -172,16 +172,23 @@ std::vector<const physics::Objective*> ClothBody::level_objectives(const hierarc
   return out;
 }
 
-std::vector<const std::vector<Index>*> injections(const hierarchy::TriangleHierarchy& h) {
-  std::vector<const std::vector<Index>*> out;
-  for (Index l = 1; l < h.num_levels(); ++l) out.push_back(&h.level(l).fine_index);
-  return out;
-}
-
-std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h) {
-  std::vector<const hierarchy::TransferTable*> p;
-  for (Index l = 0; l + 1 < h.num_levels(); ++l) p.push_back(&h.prolongation(l));
-  return p;
+hierarchy::Hierarchy ClothBody::solver_hierarchy(const hierarchy::HierarchyParams& params, bool rediscretized) {
+  hierarchy::Hierarchy h = hierarchy(params).levels_for_solvers();
+  h.levels[0].objective = &objective();
+  if (!rediscretized) return h;
+  const auto coarse = level_objectives(params);
+  m_lsq.resize(h.num_levels());
+  for (size_t l = 0; l < h.num_levels(); ++l) {
+    if (l > 0) h.levels[l].objective = coarse[l - 1];
+    if (l + 1 == h.num_levels()) continue;
+    const linalg::StencilTable* P = h.levels[l].prolongation;
+    auto* lsq = &m_lsq[l];
+    h.levels[l].project_lsq = [lsq, P](const VecX& fine, VecX& coarse_x) {
+      if (!*lsq) *lsq = std::make_unique<hierarchy::LeastSquaresProjection>(*P);
+      (*lsq)->apply(fine, coarse_x);
+    };
+  }
+  return h;
 }
 
 std::vector<Vec3> ClothBody::pin_targets(double t) const {

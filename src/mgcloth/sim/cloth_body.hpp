@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/geometry/rigid_motion.hpp>
+#include <mgcloth/hierarchy/reverse_subdivision.hpp>
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/attachment.hpp>
@@ -62,6 +63,10 @@ class ClothBody {
   /// coarse triangles and hinges; seams from the coarse stitch groups; the pins on their kept vertices). Built on
   /// first use; prepare_step keeps them on the current step, each level's prediction the fine one injected.
   std::vector<const physics::Objective*> level_objectives(const hierarchy::HierarchyParams& params);
+  /// hierarchy(params) as a solver sees it (solvers::Problem::hierarchy): prolongations and injections; with
+  /// `rediscretized` also the step's objective on every level (level_objectives) and the least-squares projections
+  /// of eq. 5.18 (factorized on first use and kept: the hierarchy does not change between steps).
+  hierarchy::Hierarchy solver_hierarchy(const hierarchy::HierarchyParams& params, bool rediscretized);
 
  private:
   /// One level's objective and the terms that prepare_step updates.
@@ -108,13 +113,8 @@ class ClothBody {
   std::vector<Vec3> m_script_from, m_script_to;
   double m_script_t0 = 0.0, m_script_t1 = 0.0;
   std::unique_ptr<hierarchy::TriangleHierarchy> m_hierarchy;
+  std::vector<std::unique_ptr<hierarchy::LeastSquaresProjection>> m_lsq;  ///< per prolongation, built on first use
 };
-
-/// The prolongation tables of a hierarchy, finest first (what solvers::Problem carries).
-std::vector<const hierarchy::TransferTable*> prolongations(const hierarchy::TriangleHierarchy& h);
-
-/// Where each vertex of level l + 1 sits on level l (Level::fine_index), finest first (Problem::injection).
-std::vector<const std::vector<Index>*> injections(const hierarchy::TriangleHierarchy& h);
 
 /// Lumped (one third of each adjacent triangle) vertex areas in material space.
 VecX lumped_vertex_area(const mesh::TriMesh& mesh);

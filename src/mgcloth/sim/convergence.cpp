@@ -58,10 +58,12 @@ SolverSpec elastic_reference() {
 
 std::string form_name(bool projective) { return projective ? "projective" : "elastic"; }
 
-/// The scene with `spec` as its solver (its stop criteria kept) and the options' thread count.
+/// The scene with `spec` as its solver (its stop criteria kept), in the energy form the solver was made for (the
+/// study compares each solver on its own form), and the options' thread count.
 Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
   scene.solver.name = spec.config.name;
   scene.solver.params = spec.config.params;
+  scene.energy_form = check_solver_spec(spec) ? physics::EnergyForm::Projective : physics::EnergyForm::Elastic;
   if (threads > 0) scene.threads = threads;
   return scene;
 }
@@ -238,7 +240,8 @@ std::vector<SolverSpec> parse_solver_list(const std::string& list) {
 }
 
 bool check_solver_spec(const SolverSpec& spec) {
-  return solvers::make_solver(spec.config, fmt::format("solver \"{}\"", spec.label), spec.config.name)->projective();
+  return solvers::make_solver(spec.config, fmt::format("solver \"{}\"", spec.label), spec.config.name)->energy_forms().front() ==
+         physics::EnergyForm::Projective;
 }
 
 double relative_energy_error(double energy, double initial_energy, double min_energy) {

@@ -242,6 +242,8 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   s.substeps = r.integer("substeps", s.substeps, 1, 10000);
   s.frames = r.integer("frames", s.frames, 0, 10'000'000);
   s.threads = r.integer("threads", s.threads, 0, 1024);
+  const std::string form = r.choice("energy_form", physics::energy_form_name(s.energy_form), physics::energy_form_names());
+  s.energy_form = physics::energy_form_of(form);
   const auto cloths = r.objects("cloths");
   const auto shells = r.objects("shells");
   for (size_t i = 0; i < shells.size(); ++i) {
@@ -278,6 +280,9 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     so->finish();
   }
   (void)solvers::resolved_params(s.solver, file, "solver.params");  // rejects unknown solver parameters now
+  if (s.energy_form == physics::EnergyForm::Projective && !s.shells.empty())
+    r.fail("energy_form", "shells have no projective form (the PD form is the cloths'); use \"elastic\"");
+  solvers::check_energy_form(*solvers::make_solver(s.solver, file, "solver.params"), s.energy_form, file);
   if (auto h = r.optional_object("hierarchy")) {
     auto& p = s.hierarchy;
     p.ratio = h->number("ratio", p.ratio, 1.5, 16.0);
@@ -329,6 +334,7 @@ Json to_json(const Scene& s) {
   j["substeps"] = s.substeps;
   j["frames"] = s.frames;
   j["threads"] = s.threads;
+  j["energy_form"] = physics::energy_form_name(s.energy_form);
   j["cloths"] = Json::array();
   for (const auto& c : s.cloths) {
     Json cj;

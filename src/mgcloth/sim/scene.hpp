@@ -4,6 +4,7 @@
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/energy_form.hpp>
 #include <mgcloth/physics/material.hpp>
 #include <mgcloth/sim/shell_scene.hpp>
 #include <mgcloth/solvers/factory.hpp>
@@ -88,6 +89,8 @@ struct Scene {
   int substeps = 1;                ///< implicit-Euler steps per frame: h = frame_time / substeps
   int frames = 60;
   int threads = 0;                 ///< 0: all cores
+  /// The form of the cloths' energy that every step minimizes; the solver must be able to minimize it.
+  physics::EnergyForm energy_form = physics::EnergyForm::Elastic;
   std::vector<ClothSpec> cloths;
   /// Subdivision Kirchhoff-Love shells (Kopaničáková 2019): stepped with the same solver; no obstacle contact.
   std::vector<ShellSpec> shells;

@@ -142,7 +142,7 @@ void start_from_coarser(const ShellBody& body, const ShellBenchState& st, VecX& 
   if (from < 0 || from >= finest)
     throw_input_error("--start-from {}: level {} of shell \"{}\" is not coarser than this solve's level {}", st.file,
                       st.level, st.shell, finest + 1);
-  const Index expected = 3 * h.subdivision(from).num_coarse;
+  const Index expected = 3 * h.subdivision(from).num_cols;
   if (st.x.size() != expected)
     throw_input_error("--start-from {}: {} dofs, level {} of shell \"{}\" has {}", st.file, st.x.size(), st.level,
                       st.shell, expected);
@@ -375,23 +375,23 @@ std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene) {
   std::mt19937 rng(11);
   std::normal_distribution<double> normal;
   for (int l = 0; l + 1 < h.num_levels(); ++l) {
-    const hierarchy::TransferTable& S = h.subdivision(l);
+    const linalg::StencilTable& S = h.subdivision(l);
     std::vector<VecX> q(3);
     for (auto& v : q) {
-      v.resize(3 * S.num_coarse);
+      v.resize(3 * S.num_cols);
       for (Index i = 0; i < v.size(); ++i) v[i] = normal(rng);
     }
     const auto measure = [&](ProjectionBenchRow row, const auto& apply) {
       row.fine_level = l + 2;
-      row.fine_dofs = 3 * S.num_fine;
-      row.coarse_dofs = 3 * S.num_coarse;
+      row.fine_dofs = 3 * S.num_rows;
+      row.coarse_dofs = 3 * S.num_cols;
       VecX fine, back;
       for (const VecX& v : q) {
         S.apply(v, fine);
         apply(fine, back);
         row.exactness = std::max(row.exactness, (back - v).norm() / v.norm());
       }
-      const int reps = std::max(3, static_cast<int>(2'000'000 / std::max<Index>(1, S.num_fine)));
+      const int reps = std::max(3, static_cast<int>(2'000'000 / std::max<Index>(1, S.num_rows)));
       Timer t;
       for (int k = 0; k < reps; ++k) apply(fine, back);
       row.apply_ms = t.ms() / reps;
@@ -402,7 +402,7 @@ std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene) {
       row.operator_name = "reverse_subdivision";
       Timer t;
       try {
-        const hierarchy::ProjectionTable Q = hierarchy::reverse_subdivision(h.mesh(l), h.step(l));
+        const linalg::StencilTable Q = hierarchy::reverse_subdivision(h.mesh(l), h.step(l));
         row.build_ms = t.ms();
         row.memory_bytes = Q.memory_bytes();
         row.entries = Q.num_entries();

@@ -102,14 +102,14 @@ physics::Objective& ShellBody::level_objective(int level) {
   return *m_levels[static_cast<size_t>(level)]->objective;
 }
 
-const hierarchy::ProjectionTable* ShellBody::reverse_subdivision(int level) {
+const linalg::StencilTable* ShellBody::reverse_subdivision(int level) {
   if (level < 0 || level + 1 >= num_levels())
     throw_error("shell \"{}\": no projection from level {} (the hierarchy has {})", name(), level + 1, num_levels());
   const size_t l = static_cast<size_t>(level);
   if (!m_reverse_tried[l]) {
     m_reverse_tried[l] = 1;
     try {
-      m_reverse[l] = std::make_unique<hierarchy::ProjectionTable>(
+      m_reverse[l] = std::make_unique<linalg::StencilTable>(
           hierarchy::reverse_subdivision(m_hierarchy.mesh(level), m_hierarchy.step(level)));
     } catch (const Error& e) {
       logger().info("shell \"{}\": level {}: no reverse subdivision ({}); iterates are projected by least squares",
@@ -158,7 +158,7 @@ void ShellBody::project(int level, const VecX& fine, VecX& coarse) {
 std::vector<std::pair<Index, double>> ShellBody::control_point_on_level(Index v, int level) const {
   std::vector<std::pair<Index, double>> row{{v, 1.0}};
   for (int l = num_levels() - 2; l >= level; --l) {
-    const hierarchy::TransferTable& S = m_hierarchy.subdivision(l);
+    const linalg::StencilTable& S = m_hierarchy.subdivision(l);
     std::vector<std::pair<Index, double>> next;
     for (const auto& [i, w] : row)
       for (Index k = S.offsets[i]; k < S.offsets[i + 1]; ++k) {
@@ -418,6 +418,28 @@ std::vector<ProbeReading> ShellBody::probes() const {
     out.push_back({m_spec.probes[i], x, x - m_probe_rest[i]});
   }
   return out;
+}
+
+hierarchy::Hierarchy ShellBody::solver_hierarchy(bool rediscretized) {
+  const int L = num_levels();
+  hierarchy::Hierarchy h;
+  for (int k = 0; k < L; ++k) {
+    const int level = L - 1 - k;
+    hierarchy::Hierarchy::Level lv;
+    lv.num_points = m_hierarchy.mesh(level).num_vertices();
+    if (level > 0) lv.prolongation = &m_hierarchy.subdivision(level - 1);
+    if (rediscretized) {
+      lv.objective = &level_objective(level);
+      lv.patches = &patches(level);
+      if (level > 0) {
+        lv.project = [this, level](const VecX& fine, VecX& coarse) { project(level - 1, fine, coarse); };
+        lv.project_lsq = [this, level](const VecX& fine, VecX& coarse) { least_squares(level - 1).apply(fine, coarse); };
+      }
+    }
+    h.levels.push_back(std::move(lv));
+  }
+  if (!rediscretized) h.levels[0].objective = &objective();
+  return h;
 }
 
 }  // namespace mgcloth::sim

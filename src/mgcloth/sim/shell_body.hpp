@@ -61,13 +61,18 @@ class ShellBody {
   physics::Objective& level_objective(int level);
   /// Q of §5.3.2 from `level` + 1 to `level` (Q S = I), or null where reverse subdivision has no rule for some point
   /// of the mesh (then only the least-squares projection exists). Built on first use.
-  const hierarchy::ProjectionTable* reverse_subdivision(int level);
+  const linalg::StencilTable* reverse_subdivision(int level);
   /// The least-squares projection of eq. 5.18 from `level` + 1 to `level`, built on first use.
   const hierarchy::LeastSquaresProjection& least_squares(int level);
   /// Smoothing patches of `level`: every control point with its one-ring (the points of the faces around it).
   const std::vector<std::vector<Index>>& patches(int level);
   /// Projects an iterate of `level` + 1 to `level`: reverse subdivision where it exists, least squares otherwise.
   void project(int level, const VecX& fine, VecX& coarse);
+
+  /// The hierarchy as a solver sees it (solvers::Problem::hierarchy), finest first: problem level k is hierarchy
+  /// level num_levels() − 1 − k. Prolongations (S) always; with `rediscretized` also the step's objective on every
+  /// level, the projections of iterates (reverse subdivision where it exists, and least squares) and the patches.
+  hierarchy::Hierarchy solver_hierarchy(bool rediscretized);
 
   /// The display mesh of the limit surface (material coordinates as vt) and its positions for the current state.
   const mesh::TriMesh& display_mesh() const { return m_display.mesh; }
@@ -122,7 +127,7 @@ class ShellBody {
   hierarchy::SubdivisionHierarchy m_hierarchy;
   /// m_levels[l] for l = 0..L-1; coarse entries null until level_objective() builds them.
   std::vector<std::unique_ptr<Level>> m_levels;
-  std::vector<std::unique_ptr<hierarchy::ProjectionTable>> m_reverse;
+  std::vector<std::unique_ptr<linalg::StencilTable>> m_reverse;
   std::vector<char> m_reverse_tried;
   std::vector<std::unique_ptr<hierarchy::LeastSquaresProjection>> m_lsq;
   std::vector<std::vector<std::vector<Index>>> m_patches;

@@ -74,7 +74,7 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     try {
       building([&] { return fmt::format("cloth \"{}\" ({}: cloths[{}])", c.name, m_scene.file, i); }, [&] {
         m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
-                                                       m_solvers.back()->projective(),
+                                                       m_scene.energy_form == physics::EnergyForm::Projective,
                                                        i < meshes.size() ? meshes[i].get() : nullptr));
       });
     } catch (const InputError& e) {
@@ -127,21 +127,9 @@ solvers::Problem Simulator::prepare_shell_problem(size_t s, VecX& x0, double* lo
   if (load_factor) *load_factor = body.is_static() ? lambda : 1.0;
   solvers::Problem problem;
   problem.objective = &body.objective();
-  if (m_shell_solvers[s]->needs_level_objectives() || m_shell_solvers[s]->needs_hierarchy()) {
-    // Problem levels are finest first: problem level k is hierarchy level L - 1 - k.
-    const int L = body.num_levels();
-    if (m_shell_solvers[s]->needs_level_objectives())
-      for (int k = 0; k < L; ++k) problem.patches.push_back(&body.patches(L - 1 - k));
-    for (int k = 1; k < L; ++k) {
-      const int level = L - 1 - k;
-      problem.prolongations.push_back(&body.hierarchy().subdivision(level));
-      if (!m_shell_solvers[s]->needs_level_objectives()) continue;
-      problem.level_objectives.push_back(&body.level_objective(level));
-      problem.projections.push_back([&body, level](const VecX& fine, VecX& coarse) { body.project(level, fine, coarse); });
-      problem.lsq_projections.push_back(
-          [&body, level](const VecX& fine, VecX& coarse) { body.least_squares(level).apply(fine, coarse); });
-    }
-  }
+  const solvers::NonlinearSolver& solver = *m_shell_solvers[s];
+  if (solver.needs_hierarchy() || solver.needs_level_objectives())
+    problem.hierarchy = body.solver_hierarchy(solver.needs_level_objectives());
   return problem;
 }
 
@@ -150,27 +138,9 @@ solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
   x0 = body.prepare_step(time(), m_scene.step_size());
   solvers::Problem problem;
   problem.objective = &body.objective();
-  if (m_solvers[c]->needs_hierarchy() || m_solvers[c]->needs_level_objectives())
-    problem.prolongations = prolongations(body.hierarchy(m_scene.hierarchy));
-  if (m_solvers[c]->needs_level_objectives()) {
-    problem.level_objectives = body.level_objectives(m_scene.hierarchy);
-    problem.injection = injections(body.hierarchy(m_scene.hierarchy));
-    // The vertex sets are nested, so injection is an exact projection of iterates (RMTR on triangle meshes).
-    for (size_t l = 0; l < problem.injection.size(); ++l) {
-      const std::vector<Index>* inj = problem.injection[l];
-      problem.projections.push_back([inj](const VecX& fine, VecX& coarse) {
-        coarse.resize(3 * static_cast<Index>(inj->size()));
-        for (size_t i = 0; i < inj->size(); ++i) coarse.segment<3>(3 * static_cast<Index>(i)) = fine.segment<3>(3 * (*inj)[i]);
-      });
-      const hierarchy::TransferTable* P = problem.prolongations[l];
-      // Factorized on first use and kept with the simulation (the hierarchy does not change between steps).
-      problem.lsq_projections.push_back([this, P](const VecX& fine, VecX& coarse) {
-        auto& lsq = m_cloth_lsq[P];
-        if (!lsq) lsq = std::make_unique<hierarchy::LeastSquaresProjection>(*P);
-        lsq->apply(fine, coarse);
-      });
-    }
-  }
+  const solvers::NonlinearSolver& solver = *m_solvers[c];
+  if (solver.needs_hierarchy() || solver.needs_level_objectives())
+    problem.hierarchy = body.solver_hierarchy(m_scene.hierarchy, solver.needs_level_objectives());
   if (body.contact()) {
     const auto* contact = body.contact();
     problem.project = [contact](VecX& y) {

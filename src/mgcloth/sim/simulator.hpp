@@ -112,8 +112,6 @@ class Simulator {
   std::vector<std::unique_ptr<ClothBody>> m_cloths;
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
   std::vector<std::unique_ptr<ShellBody>> m_shells;
-  /// Least-squares projections of the cloths' hierarchies, per prolongation table (built on first use).
-  std::map<const hierarchy::TransferTable*, std::unique_ptr<hierarchy::LeastSquaresProjection>> m_cloth_lsq;
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_shell_solvers;
   int m_frame = 0;
   long m_step = 0;

@@ -55,10 +55,10 @@ void Fas::cycle(Index l, VecX& x, const VecX& tau) {
     return;
   }
   for (int k = 0; k < m_params.pre_smooth; ++k) smooth(l, x, tau, false);
-  // Coarse problem: E_c(y) − τ_cᵀ y with τ_c = ∇E_c(x̂) − Pᵀ(∇E_l(x) − τ_l), x̂ the injected iterate.
-  const auto& inject = *m_inject[l];
-  VecX xc0(3 * static_cast<Index>(inject.size()));
-  for (size_t i = 0; i < inject.size(); ++i) xc0.segment<3>(3 * static_cast<Index>(i)) = x.segment<3>(3 * inject[i]);
+  // Coarse problem: E_c(y) − τ_cᵀ y with τ_c = ∇E_c(x̂) − Pᵀ(∇E_l(x) − τ_l), x̂ the projected iterate (the
+  // injected one for nested vertex sets).
+  VecX xc0;
+  m_problem->hierarchy.levels[static_cast<size_t>(l)].project(x, xc0);
   VecX g, rg, tau_c;
   shifted_gradient(l, x, tau, g);
   m_p[l]->apply_transpose(g, rg);
@@ -83,12 +83,14 @@ void Fas::cycle(Index l, VecX& x, const VecX& tau) {
 }
 
 SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
-  if (problem.level_objectives.size() != problem.prolongations.size() || problem.injection.size() != problem.prolongations.size())
-    throw Error("fas: the problem has no coarse objectives (the simulation must provide level_objectives)");
+  const hierarchy::Hierarchy& H = problem.hierarchy;
+  if (H.num_levels() < 2 || !H.has_objectives() || !H.has_projections())
+    throw Error("fas: the problem has no coarse objectives and projections of iterates (the simulation must "
+                "rediscretize the step on every level of the hierarchy)");
   Timer timer;
   m_problem = &problem;
   std::vector<const physics::Objective*> objectives{problem.objective};
-  objectives.insert(objectives.end(), problem.level_objectives.begin(), problem.level_objectives.end());
+  for (size_t l = 1; l < H.num_levels(); ++l) objectives.push_back(H.levels[l].objective);
   bool rebuild = objectives.size() != m_levels.size();
   for (size_t l = 0; !rebuild && l < objectives.size(); ++l) rebuild = m_levels[l].objective != objectives[l];
   if (rebuild) {
@@ -98,8 +100,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
       if (l + 1 < objectives.size()) m_levels[l].gs = linalg::MultiColorGaussSeidel(objectives[l]->hessian_pattern());
     }
   }
-  m_p = problem.prolongations;
-  m_inject = problem.injection;
+  m_p = H.prolongations();
 
   const physics::Objective& obj = *problem.objective;
   SolveReport rep;

@@ -17,7 +17,7 @@ struct FasParams {
 
 /// The full approximation scheme (Brandt 1977; in the optimization form of Nash 2000, "MG/OPT"), the FAS baseline
 /// of Wang 2018 Fig. 4: positions, not corrections, move between levels, and each coarse level minimizes the
-/// objective rediscretized on its own mesh, E_c(y) − τᵀy, with τ = ∇E_c(x̂) − Pᵀ∇E_f(x) for x̂ the injected fine
+/// objective rediscretized on its own mesh, E_c(y) − τᵀy, with τ = ∇E_c(x̂) − Pᵀ∇E_f(x) for x̂ the projected fine
 /// iterate, so that the coarse problem is first-order consistent with the fine one. The coarse correction
 /// P(y − x̂) is line-searched on the fine objective (which makes the cycle a descent method); smoothing is one
 /// Newton step per smoothing iteration with the system relaxed by symmetric Gauss-Seidel and a line search; the
@@ -43,8 +43,7 @@ class Fas final : public NonlinearSolver {
 
   FasParams m_params;
   std::vector<Level> m_levels;
-  std::vector<const hierarchy::TransferTable*> m_p;
-  std::vector<const std::vector<Index>*> m_inject;
+  std::vector<const linalg::StencilTable*> m_p;
   linalg::CholmodSolver m_coarse;
   const Problem* m_problem = nullptr;
 };

@@ -25,7 +25,7 @@ void FmgCuda::restore_carried_state(std::string_view state) {
 
 SolveReport FmgCuda::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) {
   if (!problem.objective) throw Error(m_name + ": the problem has no objective");
-  if (problem.prolongations.empty())
+  if (problem.hierarchy.num_levels() < 2)
     throw InputError(m_name + ": needs a hierarchy of at least two levels (the cloth is too small to coarsen)");
   cuda::Limits limits;
   limits.rel_grad = stop.rel_grad;
@@ -34,7 +34,7 @@ SolveReport FmgCuda::minimize(Problem& problem, VecX& x, const Stop& stop, Trace
   limits.max_seconds = stop.max_seconds;
   limits.interruptible = stop.interruptible;
   const cuda::Outcome out =
-      m_impl->minimize(*problem.objective, problem.prolongations, static_cast<bool>(problem.project), x, limits, trace != nullptr);
+      m_impl->minimize(*problem.objective, problem.hierarchy.prolongations(), static_cast<bool>(problem.project), x, limits, trace != nullptr);
   if (trace)
     for (const cuda::Row& r : out.trace) trace->push_back({r.iteration, r.energy, r.grad_norm, r.wall_ms, r.step});
   SolveReport rep;

@@ -18,6 +18,8 @@ class FmgCuda final : public NonlinearSolver {
   FmgCuda(cuda::Backend backend, cuda::FmgSettings settings, std::string name = "fmg-cuda");
   std::string name() const override { return m_name; }
   bool needs_hierarchy() const override { return true; }
+  /// The device pipeline has kernels for the elastic terms only.
+  std::vector<physics::EnergyForm> energy_forms() const override { return {physics::EnergyForm::Elastic}; }
   /// Counters: those of "fmg" (directions, energy evaluations, matrix updates, time per phase) plus setup_ms.
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
   /// On the device: projection, velocity and friction filter (cuda::DeviceFmg::finish_step).

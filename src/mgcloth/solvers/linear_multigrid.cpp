@@ -6,17 +6,17 @@
 
 namespace mgcloth::solvers {
 
-LinearMultigrid::LinearMultigrid(std::vector<const hierarchy::TransferTable*> p, const linalg::BlockMatrix3& fine_pattern,
+LinearMultigrid::LinearMultigrid(std::vector<const linalg::StencilTable*> p, const linalg::BlockMatrix3& fine_pattern,
                                  MultigridParams params)
     : m_p(std::move(p)), m_levels(m_p.size() + 1), m_params(params) {
   const linalg::BlockMatrix3* pattern = &fine_pattern;
   m_sizes.push_back(fine_pattern.rows());
   for (size_t l = 0; l < m_p.size(); ++l) {
     const auto& t = *m_p[l];
-    if (t.num_fine != pattern->rows())
-      throw Error(fmt::format("multigrid: level {} has {} vertices but its prolongation expects {}", l, pattern->rows(), t.num_fine));
+    if (t.num_rows != pattern->rows())
+      throw Error(fmt::format("multigrid: level {} has {} vertices but its prolongation expects {}", l, pattern->rows(), t.num_rows));
     m_levels[l].smoother = linalg::MultiColorGaussSeidel(*pattern);
-    m_levels[l].rap = linalg::GalerkinProduct(*pattern, t.num_coarse, t.offsets, t.indices, t.weights);
+    m_levels[l].rap = linalg::GalerkinProduct(*pattern, t);
     m_levels[l + 1].A = m_levels[l].rap.coarse_pattern();
     pattern = &m_levels[l + 1].A;
     m_sizes.push_back(pattern->rows());

@@ -1,5 +1,5 @@
 #pragma once
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/linalg/cholmod_solver.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
 #include <mgcloth/linalg/gauss_seidel.hpp>
@@ -30,7 +30,7 @@ struct MultigridParams {
 class LinearMultigrid {
  public:
   /// `prolongations[l]` maps level l+1 to level l; `fine_pattern` is the pattern of the level-0 matrices.
-  LinearMultigrid(std::vector<const hierarchy::TransferTable*> prolongations, const linalg::BlockMatrix3& fine_pattern,
+  LinearMultigrid(std::vector<const linalg::StencilTable*> prolongations, const linalg::BlockMatrix3& fine_pattern,
                   MultigridParams params = {});
 
   /// New level-0 values: recomputes the coarse operators, smoother diagonals and the coarsest factorization.
@@ -86,7 +86,7 @@ class LinearMultigrid {
     linalg::GalerkinProduct rap;  ///< from this level to the next coarser one
     double rho = 0.0;             ///< Chebyshev: estimated spectral radius of one symmetric sweep
   };
-  std::vector<const hierarchy::TransferTable*> m_p;
+  std::vector<const linalg::StencilTable*> m_p;
   std::vector<Level> m_levels;
   std::vector<Index> m_sizes;
   mutable double m_rows_active = 0.0, m_rows_total = 0.0;

@@ -42,9 +42,10 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});
   const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
-  if (!m_linear || (needs_hierarchy() && m_linear_for != problem.prolongations)) {
-    m_linear = make_newton_linear_solver(m_params.linear, problem.prolongations, obj.hessian_pattern());
-    m_linear_for = problem.prolongations;
+  const auto prolongations = problem.hierarchy.prolongations();
+  if (!m_linear || (needs_hierarchy() && m_linear_for != prolongations)) {
+    m_linear = make_newton_linear_solver(m_params.linear, prolongations, obj.hessian_pattern());
+    m_linear_for = prolongations;
     m_have_constant = false;
   }
   if (!m_restore.empty()) {

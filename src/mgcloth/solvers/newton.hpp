@@ -19,7 +19,7 @@ struct NewtonParams {
   /// The matrix does not depend on x (Projective Dynamics): it is assembled and factored on the first solve and
   /// later solves reassemble it only to refactor when it changed (a new contact set).
   bool constant_matrix = false;
-  bool projective = false;  ///< minimize the Projective Dynamics energy form
+  bool projective = false;  ///< a PD local/global preset: minimizes the Projective Dynamics form only
 };
 
 /// Newton's method with a backtracking line search: H d = −∇E with the (projected) Hessian, solved by a linear
@@ -31,7 +31,10 @@ class Newton final : public NonlinearSolver {
   explicit Newton(NewtonParams params = {});
   explicit Newton(NewtonParams params, std::string name) : Newton(std::move(params)) { m_name = std::move(name); }
   std::string name() const override { return m_name; }
-  bool projective() const override { return m_params.projective; }
+  std::vector<physics::EnergyForm> energy_forms() const override {
+    if (m_params.projective) return {physics::EnergyForm::Projective};
+    return NonlinearSolver::energy_forms();
+  }
   bool needs_hierarchy() const override { return solvers::needs_hierarchy(m_params.linear.method); }
   /// Linear iterations (CG iterations or V-cycles; 1 per direct solve) summed over the last minimize().
   long linear_iterations() const { return m_linear_iterations; }
@@ -43,7 +46,7 @@ class Newton final : public NonlinearSolver {
  private:
   NewtonParams m_params;
   std::unique_ptr<NewtonLinearSolver> m_linear;
-  std::vector<const hierarchy::TransferTable*> m_linear_for;  ///< the hierarchy m_linear was built for
+  std::vector<const linalg::StencilTable*> m_linear_for;  ///< the hierarchy m_linear was built for
   std::string m_name = "newton";
   linalg::BlockMatrix3 m_hessian, m_scratch;
   bool m_have_constant = false;

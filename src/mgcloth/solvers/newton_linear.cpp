@@ -69,7 +69,7 @@ class Iterative : public NewtonLinearSolver {
 
 class Multigrid final : public Iterative {
  public:
-  Multigrid(const LinearSolveParams& p, const std::vector<const hierarchy::TransferTable*>& prolongations,
+  Multigrid(const LinearSolveParams& p, const std::vector<const linalg::StencilTable*>& prolongations,
             const linalg::BlockMatrix3& pattern, bool krylov)
       : Iterative(p.max_iters), m_mg(prolongations, pattern, p.multigrid), m_krylov(krylov) {}
 
@@ -131,7 +131,7 @@ class AmgPcg final : public Iterative {
 }  // namespace
 
 std::unique_ptr<NewtonLinearSolver> make_newton_linear_solver(const LinearSolveParams& p,
-                                                              const std::vector<const hierarchy::TransferTable*>& prolongations,
+                                                              const std::vector<const linalg::StencilTable*>& prolongations,
                                                               const linalg::BlockMatrix3& pattern) {
   if (p.method == "cholmod") return std::make_unique<Direct>();
   if (p.method == "pcg-jacobi") return std::make_unique<JacobiPcg>(p.max_iters);

@@ -1,5 +1,5 @@
 #pragma once
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/linalg/hypre_amg.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 
@@ -54,7 +54,7 @@ class NewtonLinearSolver {
 /// Builds the solver; multigrid methods take the hierarchy's prolongations (finest first; none means a single
 /// level, solved directly) and the pattern of the finest matrices. Throws InputError for an unknown method.
 std::unique_ptr<NewtonLinearSolver> make_newton_linear_solver(const LinearSolveParams& params,
-                                                              const std::vector<const hierarchy::TransferTable*>& prolongations,
+                                                              const std::vector<const linalg::StencilTable*>& prolongations,
                                                               const linalg::BlockMatrix3& pattern);
 
 }  // namespace mgcloth::solvers

@@ -90,10 +90,11 @@ SolveReport NonlinearFMG::minimize(Problem& problem, VecX& x, const Stop& stop, 
   const physics::Objective& obj = *problem.objective;
   Timer timer;
   m_stats = Stats{};
-  if (!m_mg || m_mg_for != problem.prolongations) {
-    const auto& levels = m_params.single_level ? std::vector<const hierarchy::TransferTable*>{} : problem.prolongations;
+  const auto prolongations = problem.hierarchy.prolongations();
+  if (!m_mg || m_mg_for != prolongations) {
+    const auto& levels = m_params.single_level ? std::vector<const linalg::StencilTable*>{} : prolongations;
     m_mg = std::make_unique<LinearMultigrid>(levels, obj.hessian_pattern(), m_params.multigrid);
-    m_mg_for = problem.prolongations;
+    m_mg_for = prolongations;
     m_have_matrix = false;
     m_beta.assign(static_cast<size_t>(m_mg->num_levels()), 1.0);
   }

@@ -59,7 +59,7 @@ struct FmgParams {
   /// flexible preconditioned CG would), then line-search that combination. Beyond the paper; off = §4.2.3 exactly.
   bool momentum = true;
   bool project_psd = true;  ///< per-element PSD projection of the Hessian
-  bool projective = false;  ///< minimize the Projective Dynamics energy form
+  bool projective = false;  ///< a PD preset: minimizes the Projective Dynamics form only
 };
 
 /// The nonlinear full multigrid of Wang et al. 2018 (§4.2, Fig. 5). Every smoothed correction on level h,
@@ -74,7 +74,10 @@ class NonlinearFMG final : public NonlinearSolver {
   explicit NonlinearFMG(FmgParams params = {}, std::string name = "fmg");
   std::string name() const override { return m_name; }
   bool needs_hierarchy() const override { return !m_params.single_level; }
-  bool projective() const override { return m_params.projective; }
+  std::vector<physics::EnergyForm> energy_forms() const override {
+    if (m_params.projective) return {physics::EnergyForm::Projective};
+    return NonlinearSolver::energy_forms();
+  }
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;
   const FmgParams& params() const { return m_params; }
   /// The Chebyshev radii of every level (estimated once, on the run's first matrix), the line search's starting
@@ -110,7 +113,7 @@ class NonlinearFMG final : public NonlinearSolver {
   FmgParams m_params;
   std::string m_name;
   std::unique_ptr<LinearMultigrid> m_mg;
-  std::vector<const hierarchy::TransferTable*> m_mg_for;
+  std::vector<const linalg::StencilTable*> m_mg_for;
   linalg::BlockMatrix3 m_A, m_scratch;
   bool m_have_matrix = false;
   std::vector<double> m_beta;  ///< per level: accepted step / model step, to start the next line search (§4.2.3)

@@ -3,6 +3,7 @@
 #include <mgcloth/solvers/line_search.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -28,6 +29,19 @@ std::vector<double> decode_carried_state(std::string_view tag, std::string_view 
   std::vector<double> values((state.size() - head) / sizeof(double));
   if (!values.empty()) std::memcpy(values.data(), state.data() + head, values.size() * sizeof(double));
   return values;
+}
+
+bool NonlinearSolver::can_minimize(physics::EnergyForm form) const {
+  const auto forms = energy_forms();
+  return std::find(forms.begin(), forms.end(), form) != forms.end();
+}
+
+void check_energy_form(const NonlinearSolver& solver, physics::EnergyForm form, const std::string& where) {
+  if (solver.can_minimize(form)) return;
+  const std::string own = physics::energy_form_name(solver.energy_forms().front());
+  throw InputError(fmt::format("{}: solver \"{}\" cannot minimize the {} energy form, only the {} one: set "
+                               "\"energy_form\": \"{}\" in the scene, or choose another solver", where, solver.name(),
+                               physics::energy_form_name(form), own, own));
 }
 
 void check_finite(const std::string& solver, double energy, double grad_norm, int iteration) {

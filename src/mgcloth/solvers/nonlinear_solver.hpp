@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
-#include <mgcloth/hierarchy/transfer.hpp>
+#include <mgcloth/hierarchy/hierarchy.hpp>
+#include <mgcloth/physics/energy_form.hpp>
 #include <mgcloth/physics/objective.hpp>
 
 #include <functional>
@@ -11,32 +12,17 @@
 
 namespace mgcloth::solvers {
 
-/// What a solver minimizes: the objective, plus hooks a solver may call. Multilevel solvers will find the
-/// hierarchy here too (ARCHITECTURE.md).
+/// What a solver minimizes: the objective, the discretization's hierarchy for multilevel solvers, and a hook that
+/// makes iterates feasible (docs/ARCHITECTURE.md).
 struct Problem {
   const physics::Objective* objective = nullptr;
+  /// Levels finest first, level 0 the objective's unknown (hierarchy.levels[0].objective == objective when set).
+  /// Empty when the solver needs none (NonlinearSolver::needs_hierarchy()); coarse objectives and projections of
+  /// iterates are filled only for solvers that rediscretize (NonlinearSolver::needs_level_objectives()).
+  hierarchy::Hierarchy hierarchy;
   /// Optional: makes an iterate feasible (obstacle projection, Wang 2018 §4.5); called after accepted updates
   /// by solvers that support it. Returns the number of vertices it moved (0: x unchanged).
   std::function<Index(VecX&)> project;
-  /// Mesh hierarchy for multilevel solvers: prolongations[l] maps level l+1 to level l (level 0 = the objective's
-  /// vertices). Empty when the solver does not need one (NonlinearSolver::needs_hierarchy()).
-  std::vector<const hierarchy::TransferTable*> prolongations;
-  /// For solvers that rediscretize the problem on coarse levels (FAS, RMTR): level_objectives[l] is the same
-  /// step's objective built on the coarse mesh of level l+1 (same terms, coarse masses, pins and obstacles), and
-  /// injection[l][i] the index on level l of vertex i of level l+1 (the vertex sets are nested). Empty unless
-  /// NonlinearSolver::needs_level_objectives().
-  std::vector<const physics::Objective*> level_objectives;
-  std::vector<const std::vector<Index>*> injection;
-  /// Projections of iterates to the next coarser level (RMTR's P, Kopaničáková 2019 §4.2, §5.3.2), numbered like
-  /// prolongations: projections[l] maps level l to level l+1. `projections` is the discretization's own operator
-  /// (reverse subdivision on a subdivision hierarchy, injection for nested vertex sets); `lsq_projections` the
-  /// least-squares one of eq. 5.18 (built on first call). Filled with level_objectives.
-  using Projection = std::function<void(const VecX& fine, VecX& coarse)>;
-  std::vector<Projection> projections;
-  std::vector<Projection> lsq_projections;
-  /// Smoothing patches per level (level 0 = the objective's), e.g. every control point with its one-ring, for
-  /// patch (Schwarz) smoothers; empty when the discretization provides none.
-  std::vector<const std::vector<std::vector<Index>>*> patches;
 };
 
 struct Stop {
@@ -79,13 +65,19 @@ class NonlinearSolver {
  public:
   virtual ~NonlinearSolver() = default;
   virtual std::string name() const = 0;
-  /// Whether minimize() needs Problem::prolongations.
+  /// Whether minimize() needs Problem::hierarchy (its prolongations).
   virtual bool needs_hierarchy() const { return false; }
-  /// Whether minimize() needs Problem::level_objectives and Problem::injection (implies needs_hierarchy()).
+  /// Whether minimize() needs the hierarchy's coarse objectives, projections of iterates and patches (implies
+  /// needs_hierarchy()).
   virtual bool needs_level_objectives() const { return false; }
-  /// Whether this solver minimizes the Projective Dynamics form of the cloth energy (Bouaziz 2014: strain
-  /// constraints with a constant global matrix as the Hessian) instead of the elastic (StVK) form.
-  virtual bool projective() const { return false; }
+  /// The energy forms this solver can minimize, the one it was made for first. The scene chooses the form
+  /// ("energy_form"); a scene whose form is not in this list is refused (check_energy_form). Most solvers minimize
+  /// either (the PD form is a smooth energy whose "Hessian" is the constant PD matrix); the pd-* presets are the PD
+  /// local/global iterations and need its constant matrix.
+  virtual std::vector<physics::EnergyForm> energy_forms() const {
+    return {physics::EnergyForm::Elastic, physics::EnergyForm::Projective};
+  }
+  bool can_minimize(physics::EnergyForm form) const;
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
@@ -109,6 +101,10 @@ class NonlinearSolver {
   /// when the state is not one this solver wrote for this problem's size.
   virtual void restore_carried_state(std::string_view state);
 };
+
+/// Throws InputError, naming `where` (e.g. the scene file), when `solver` cannot minimize `form`, saying which form
+/// it minimizes and how to choose it.
+void check_energy_form(const NonlinearSolver& solver, physics::EnergyForm form, const std::string& where);
 
 /// carried_state() encoding: `tag` (the solver kind, so that a state is never read by another kind), a NUL, then
 /// the values' bytes in the host's order.

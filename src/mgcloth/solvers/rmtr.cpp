@@ -12,8 +12,8 @@ namespace mgcloth::solvers {
 
 struct Rmtr::Level {
   const physics::Objective* f = nullptr;
-  const hierarchy::TransferTable* S = nullptr;  ///< prolongation from the level below to this one (null: coarsest)
-  Problem::Projection project;                  ///< iterates from this level to the level below
+  const linalg::StencilTable* S = nullptr;  ///< prolongation from the level below to this one (null: coarsest)
+  hierarchy::Projection project;                  ///< iterates from this level to the level below
   linalg::BlockMatrix3 norm_matrix;             ///< M_l = Iᵀ D I of eq. 4.9 (D on the finest: I, or the scaling)
   std::unique_ptr<linalg::NormMetric> metric;   ///< null where the norm is ℓ2
   std::unique_ptr<linalg::GalerkinProduct> rap; ///< norm_matrix of this level → the level below's (symbolic, once)
@@ -55,15 +55,16 @@ linalg::BlockMatrix3 identity_blocks(Index n) {
 }  // namespace
 
 void Rmtr::setup(const Problem& problem) {
-  const size_t available = problem.prolongations.size() + 1;
-  if (problem.level_objectives.size() + 1 != available)
-    throw Error(fmt::format("{}: the problem has {} prolongations but {} coarse objectives (the simulation must "
-                            "rediscretize the step on every level)", m_name, available - 1,
-                            problem.level_objectives.size()));
-  const auto& projections = m_params.projection == "least_squares" ? problem.lsq_projections : problem.projections;
-  if (projections.size() + 1 != available)
+  const hierarchy::Hierarchy& H = problem.hierarchy;
+  const size_t available = std::max<size_t>(1, H.num_levels());
+  if (available > 1 && !H.has_objectives())
+    throw Error(fmt::format("{}: the problem's hierarchy has {} levels but no coarse objectives (the simulation must "
+                            "rediscretize the step on every level)", m_name, available));
+  const bool lsq = m_params.projection == "least_squares";
+  if (available > 1 && !H.has_projections(lsq))
     throw Error(fmt::format("{}: the problem provides no {} projection for its {} levels", m_name, m_params.projection,
                             available));
+  const auto projection = [&](size_t k) { return lsq ? H.levels[k].project_lsq : H.levels[k].project; };
   const size_t used = m_params.levels > 0 ? std::min(available, static_cast<size_t>(m_params.levels)) : available;
   if (used < 2)
     throw Error(fmt::format("{}: needs at least two levels, the problem has {} (a shell of level 1, or a solver "
@@ -72,12 +73,12 @@ void Rmtr::setup(const Problem& problem) {
 
   std::vector<const void*> key{problem.objective};
   for (size_t k = 0; k + 1 < used; ++k) {
-    key.push_back(problem.level_objectives[k]);
-    key.push_back(problem.prolongations[k]);
+    key.push_back(H.levels[k + 1].objective);
+    key.push_back(H.levels[k].prolongation);
   }
   if (key == m_key && m_levels.size() == used) {
     // Same hierarchy: keep the norm matrices and Local_TR objects; the projections may capture new state.
-    for (size_t i = 1; i < used; ++i) m_levels[i]->project = projections[used - 1 - i];
+    for (size_t i = 1; i < used; ++i) m_levels[i]->project = projection(used - 1 - i);
     return;
   }
   m_key = key;
@@ -87,13 +88,13 @@ void Rmtr::setup(const Problem& problem) {
   for (size_t i = 0; i < used; ++i) {
     const size_t k = used - 1 - i;
     auto lv = std::make_unique<Level>();
-    lv->f = k == 0 ? problem.objective : problem.level_objectives[k - 1];
+    lv->f = k == 0 ? problem.objective : H.levels[k].objective;
     if (i > 0) {
-      lv->S = problem.prolongations[k];
-      lv->project = projections[k];
-      if (lv->S->num_fine * 3 != lv->f->num_dofs())
+      lv->S = H.levels[k].prolongation;
+      lv->project = projection(k);
+      if (lv->S->num_rows * 3 != lv->f->num_dofs())
         throw Error(fmt::format("{}: level {}: the prolongation has {} fine points, the objective {} dofs", m_name, k,
-                                lv->S->num_fine, lv->f->num_dofs()));
+                                lv->S->num_rows, lv->f->num_dofs()));
       if (lv->S->t_offsets.empty()) throw Error(fmt::format("{}: level {}: prolongation without transpose", m_name, k));
     }
     TrustRegionParams tp = m_params.tr;
@@ -105,9 +106,10 @@ void Rmtr::setup(const Problem& problem) {
     }
     lv->tr = std::make_unique<LocalTrustRegion>(tp, fmt::format("{} level {}", m_name, k));
     if (tp.qp == TrQp::Schwarz) {
-      if (problem.patches.size() <= k || !problem.patches[k])
+      const auto* patches = k < H.num_levels() ? H.levels[k].patches : nullptr;
+      if (!patches)
         throw Error(fmt::format("{}: the Schwarz smoother needs patches, which the problem does not provide", m_name));
-      lv->tr->set_patches(*problem.patches[k]);
+      lv->tr->set_patches(*patches);
     }
     m_levels[i] = std::move(lv);
   }
@@ -116,8 +118,8 @@ void Rmtr::setup(const Problem& problem) {
   m_levels[used - 1]->norm_matrix = identity_blocks(m_levels[used - 1]->f->num_dofs() / 3);
   for (size_t i = used - 1; i-- > 0;) {
     Level& fine = *m_levels[i + 1];
-    const hierarchy::TransferTable& S = *fine.S;
-    fine.rap = std::make_unique<linalg::GalerkinProduct>(fine.norm_matrix, S.num_coarse, S.offsets, S.indices, S.weights);
+    const linalg::StencilTable& S = *fine.S;
+    fine.rap = std::make_unique<linalg::GalerkinProduct>(fine.norm_matrix, S);
     fine.rap->compute(fine.norm_matrix, m_levels[i]->norm_matrix);  // the pattern the next level's product needs
   }
   update_norms(false);
@@ -296,8 +298,7 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
       h->hessian(x, L.model_hessian);
       ++C.hessian_assemblies;
       if (!L.hessian_rap)
-        L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, L.S->num_coarse, L.S->offsets,
-                                                                 L.S->indices, L.S->weights);
+        L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, *L.S);
       L.hessian_rap->compute(L.model_hessian, L.galerkin);
       coarse_galerkin = &L.galerkin;
     }
