@@ -120,7 +120,7 @@ int main(int argc, char** argv) {
       (void)hierarchy::build_triangle_hierarchy(body.mesh(), hp);  // timed on its own: the body's may be built already
     }
     const double hierarchy_ms = timer.ms();
-    const auto& h = body.hierarchy(s.scene().hierarchy);
+    const auto& h = body.hierarchy();
     const auto P = h.levels_for_solvers().prolongations();
 
     std::vector<std::string> methods;

@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
     scene.shells[0].level = level;
     sim::Simulator sim(scene);
     VecX x;
-    const solvers::Problem problem = sim.prepare_shell_problem(0, x);
+    const solvers::Problem problem = sim.prepare_problem(0, x);
     const physics::Objective& f = *problem.objective;
     for (Index i = 0; i < x.size(); ++i) x[i] += 1e-3 * std::sin(0.37 * static_cast<double>(i));
     VecX g;

@@ -33,9 +33,10 @@ int run(const std::string& scene_file, const std::string& state_file, int sample
   for (auto& sh : scene.shells) sh.level = st.level;
   scene.cloths.clear();
   scene.frames = 1;
+  scene.solve_jointly = false;  // the shell's own objective
   sim::Simulator sim(scene);
   VecX x0;
-  const solvers::Problem problem = sim.prepare_shell_problem(s, x0);
+  const solvers::Problem problem = sim.prepare_problem(sim.group_of(s), x0);
   if (st.x.size() != x0.size())
     throw_input_error("{}: {} dofs, shell \"{}\" of {} at level {} has {}", state_file, st.x.size(), st.shell,
                       scene_file, st.level, x0.size());

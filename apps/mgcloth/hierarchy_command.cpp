@@ -13,7 +13,7 @@
 #include <mgcloth/linalg/galerkin.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/mesh/topology.hpp>
-#include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/sim/scene.hpp>
 
 #include <fmt/format.h>
 
@@ -49,7 +49,7 @@ struct Subject {
   std::string name;
   std::string source;  ///< for messages: the file (and cloth)
   fs::path dir;        ///< where its outputs go
-  std::unique_ptr<sim::ClothBody> body;
+  std::unique_ptr<bodies::ClothBody> body;
 };
 
 struct LevelRow {
@@ -79,9 +79,11 @@ void check_options() {
     throw_input_error("--out: {} exists and is not a folder", g_hier.out);
 }
 
-std::unique_ptr<sim::ClothBody> build_body(const sim::ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
-                                           const sim::Scene& scene) {
-  return std::make_unique<sim::ClothBody>(spec, obstacles, scene.contact, scene.gravity);
+std::unique_ptr<bodies::ClothBody> build_body(const sim::ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
+                                              const sim::Scene& scene) {
+  bodies::ClothEnvironment env = sim::cloth_environment(scene);
+  env.obstacles = obstacles;
+  return std::make_unique<bodies::ClothBody>(spec, env);
 }
 
 /// An OBJ is one cloth with the defaults of a scene cloth (cotton, no pins), written straight into --out.
@@ -230,7 +232,7 @@ void remove_stale_levels(const fs::path& dir, Index num_levels) {
 }
 
 void process(Subject& s) {
-  sim::ClothBody& body = *s.body;
+  bodies::ClothBody& body = *s.body;
   hierarchy::HierarchyParams params = g_hier.params;
   params.keep = body.pinned_vertices();
   std::sort(params.keep.begin(), params.keep.end());

@@ -113,6 +113,16 @@ class PySimulator {
     return static_cast<size_t>(c);
   }
 
+  /// A body (cloth or shell) by name or by index in bodies() order (the cloths first, so a cloth's index is the same).
+  size_t body(py::handle which) const {
+    const auto& bodies = m_sim->bodies();
+    if (py::isinstance<py::str>(which)) return m_sim->body_index(which.cast<std::string>());
+    const auto b = index_of(which, "body");
+    if (b < 0 || b >= static_cast<long long>(bodies.size()))
+      throw_input_error("body: index {} out of range (the scene has {} bodies)", b, bodies.size());
+    return static_cast<size_t>(b);
+  }
+
   size_t obstacle(py::handle which) const {
     const auto& obstacles = m_sim->obstacles();
     if (py::isinstance<py::str>(which)) {
@@ -223,7 +233,8 @@ void bind_simulator(py::module_& m) {
       .def_readonly("frame", &sim::StepStats::frame, "The frame the step belongs to (1-based).")
       .def_readonly("step", &sim::StepStats::step, "The step number (1-based; frames x substeps in all).")
       .def_readonly("time", &sim::StepStats::sim_time, "Simulated time at the end of the step, in seconds.")
-      .def_readonly("cloth", &sim::StepStats::cloth, "Name of the cloth (or shell).")
+      .def_readonly("body", &sim::StepStats::body, "Name of the body (cloth or shell).")
+      .def_readonly("cloth", &sim::StepStats::body, "The same as body (the name of stats.csv's column).")
       .def_readonly("solver", &sim::StepStats::solver, "Name of the solver that minimized the step's objective.")
       .def_property_readonly("iterations", [](const sim::StepStats& s) { return s.report.iterations; },
                              "Solver iterations of the step.")
@@ -259,8 +270,8 @@ void bind_simulator(py::module_& m) {
           "Per-iteration arrays (iteration, energy, grad_norm, wall_ms, step) when the simulation records traces "
           "(trace=True), else None.")
       .def("__repr__", [](const sim::StepStats& s) {
-        return fmt::format("<mgcloth.StepStats frame {} step {} cloth \"{}\": {} {} iterations, {}, energy {:.9g}>",
-                           s.frame, s.step, s.cloth, s.solver, s.report.iterations, s.report.status, s.report.energy);
+        return fmt::format("<mgcloth.StepStats frame {} step {} body \"{}\": {} {} iterations, {}, energy {:.9g}>",
+                           s.frame, s.step, s.body, s.solver, s.report.iterations, s.report.status, s.report.energy);
       });
 
   py::class_<PySimulator>(
@@ -299,40 +310,41 @@ void bind_simulator(py::module_& m) {
           "positions",
           [](py::object self, py::handle cloth) {
             auto& s = self.cast<PySimulator&>();
-            const VecX& x = s.sim().cloths()[s.cloth(cloth)]->x();
+            const VecX& x = s.sim().bodies()[s.body(cloth)]->x();
             return readonly_view(x.data(), x.size() / 3, 3, 3, self);
           },
           py::arg("cloth") = 0,
-          "World positions of a cloth's vertices (by index or name): a read-only (n, 3) float64 view, no copy. It is "
-          "live: later steps change it; copy it (np.array(...)) to keep a frame.")
+          "World positions of a body's points (a cloth's vertices, a shell's control points; the body by index in "
+          "body_names or by name): a read-only (n, 3) float64 view, no copy. It is live: later steps change it; copy "
+          "it (np.array(...)) to keep a frame.")
       .def(
           "velocities",
           [](py::object self, py::handle cloth) {
             auto& s = self.cast<PySimulator&>();
-            const VecX& v = s.sim().cloths()[s.cloth(cloth)]->v();
+            const VecX& v = s.sim().bodies()[s.body(cloth)]->v();
             return readonly_view(v.data(), v.size() / 3, 3, 3, self);
           },
-          py::arg("cloth") = 0, "Velocities of a cloth's vertices (m/s): a live read-only (n, 3) float64 view.")
+          py::arg("cloth") = 0, "Velocities of a body's points (m/s): a live read-only (n, 3) float64 view.")
       .def_property_readonly(
           "x",
           [](py::object self) {
             auto& s = self.cast<PySimulator&>();
-            if (s.sim().cloths().size() != 1)
-              throw_input_error("x: the scene has {} cloths; use positions(cloth)", s.sim().cloths().size());
-            const VecX& x = s.sim().cloths()[0]->x();
+            if (s.sim().bodies().size() != 1)
+              throw_input_error("x: the scene has {} bodies; use positions(cloth)", s.sim().bodies().size());
+            const VecX& x = s.sim().bodies()[0]->x();
             return readonly_view(x.data(), x.size() / 3, 3, 3, self);
           },
-          "Positions of the scene's one cloth: a live read-only (n, 3) view (positions(cloth) for several).")
+          "Positions of the scene's one body: a live read-only (n, 3) view (positions(cloth) for several).")
       .def_property_readonly(
           "v",
           [](py::object self) {
             auto& s = self.cast<PySimulator&>();
-            if (s.sim().cloths().size() != 1)
-              throw_input_error("v: the scene has {} cloths; use velocities(cloth)", s.sim().cloths().size());
-            const VecX& v = s.sim().cloths()[0]->v();
+            if (s.sim().bodies().size() != 1)
+              throw_input_error("v: the scene has {} bodies; use velocities(cloth)", s.sim().bodies().size());
+            const VecX& v = s.sim().bodies()[0]->v();
             return readonly_view(v.data(), v.size() / 3, 3, 3, self);
           },
-          "Velocities of the scene's one cloth: a live read-only (n, 3) view (velocities(cloth) for several).")
+          "Velocities of the scene's one body: a live read-only (n, 3) view (velocities(cloth) for several).")
       .def(
           "triangles",
           [](py::object self, py::handle cloth) {
@@ -447,6 +459,14 @@ void bind_simulator(py::module_& m) {
             return names;
           },
           "Names of the cloths, in scene order (index = position in this list).")
+      .def_property_readonly(
+          "body_names",
+          [](const PySimulator& s) {
+            std::vector<std::string> names;
+            for (const auto& b : s.sim().bodies()) names.push_back(b->name());
+            return names;
+          },
+          "Names of every body: the cloths, then the shells, in scene order (index = position in this list).")
       .def_property_readonly(
           "obstacle_names",
           [](const PySimulator& s) {

@@ -55,10 +55,14 @@ def test_bad_uv_and_pins(small_grid):
         sim.set_pin_targets(np.zeros(3))
     with pytest.raises(mgcloth.InputError, match=r'cloth "cloth0": 1 pin targets given for 2 pinned vertices'):
         sim.set_pin_targets(np.zeros((1, 3)))
-    with pytest.raises(mgcloth.InputError, match=r"cloth: index 1 out of range \(the scene has 1 cloths\)"):
+    with pytest.raises(mgcloth.InputError, match=r"body: index 1 out of range \(the scene has 1 bodies\)"):
         sim.positions(1)
-    with pytest.raises(mgcloth.InputError, match=r"cloth: expected an index or a name, got 0.5"):
+    with pytest.raises(mgcloth.InputError, match=r"body: expected an index or a name, got 0.5"):
         sim.positions(0.5)
+    with pytest.raises(mgcloth.InputError, match=r'no body named "skirt" \(the scene has "cloth0"\)'):
+        sim.velocities("skirt")
+    with pytest.raises(mgcloth.InputError, match=r"cloth: index 1 out of range \(the scene has 1 cloths\)"):
+        sim.triangles(1)
 
 
 @pytest.mark.parametrize("scene, message", [

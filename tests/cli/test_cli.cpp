@@ -5,7 +5,7 @@
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/scene.hpp>
-#include <mgcloth/sim/shell_body.hpp>
+#include <mgcloth/bodies/shell_body.hpp>
 
 #include <fmt/format.h>
 
@@ -710,7 +710,7 @@ TEST_F(Cli, ShellBenchStartsFromACoarserSolveAndRejectsBadStarts) {
   EXPECT_EQ(start["counters"]["started_from_level"].get<double>(), 2.0);
   mgcloth::sim::Scene sc = mgcloth::sim::load_scene(scene);
   sc.shells.front().level = 3;
-  mgcloth::sim::ShellBody body(sc.shells.front(), sc.gravity, sc.file);
+  mgcloth::bodies::ShellBody body(sc.shells.front(), sc.gravity, sc.file);
   const auto x3 = start["x"].get<std::vector<double>>();
   ASSERT_EQ(static_cast<mgcloth::Index>(x3.size()), 3 * body.hierarchy().subdivision(1).num_rows);
   mgcloth::VecX back;

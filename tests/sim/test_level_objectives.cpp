@@ -2,7 +2,8 @@
 // the elastic and the Projective Dynamics forms.
 #include <mgcloth/physics/attachment.hpp>
 #include <mgcloth/physics/inertia.hpp>
-#include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/bodies/cloth_body.hpp>
+#include <mgcloth/sim/scene.hpp>
 
 #include <gtest/gtest.h>
 
@@ -21,10 +22,12 @@ sim::Scene sheet_scene() {
   return sim::parse_scene(j, "sheet.json", ".");
 }
 
-std::vector<geometry::Obstacle> build_obstacles(const sim::Scene& s) {
-  std::vector<geometry::Obstacle> out;
-  for (const auto& o : s.obstacles) out.push_back(o.build());
-  return out;
+/// The scene's environment for its cloth, in the given energy form, with or without its obstacles.
+bodies::ClothEnvironment environment(const sim::Scene& s, bool projective, bool obstacles = true) {
+  bodies::ClothEnvironment env = sim::cloth_environment(s);
+  env.energy_form = projective ? physics::EnergyForm::Projective : physics::EnergyForm::Elastic;
+  if (!obstacles) env.obstacles.clear();
+  return env;
 }
 
 std::vector<std::string> term_names(const physics::Objective& obj) {
@@ -54,17 +57,17 @@ TEST(LevelObjectives, SameTermsTotalMassAndNoElasticEnergyAtRest) {
   const sim::Scene scene = sheet_scene();
   for (bool projective : {false, true}) {
     SCOPED_TRACE(projective ? "projective" : "elastic");
-    sim::ClothBody body(scene.cloths[0], build_obstacles(scene), scene.contact, scene.gravity, projective);
-    const auto levels = body.level_objectives(scene.hierarchy);
-    const auto& h = body.hierarchy(scene.hierarchy);
+    bodies::ClothBody body(scene.cloths[0], environment(scene, projective));
+    const auto levels = body.level_objectives();
+    const auto& h = body.hierarchy();
     ASSERT_GE(h.num_levels(), 3);
     ASSERT_EQ(levels.size(), static_cast<size_t>(h.num_levels() - 1));
-    EXPECT_EQ(body.level_objectives(scene.hierarchy), levels);  // built once
+    EXPECT_EQ(body.level_objectives(), levels);  // built once
     const auto names = term_names(body.objective());
     EXPECT_NE(std::find(names.begin(), names.end(), projective ? "contact_pd" : "contact"), names.end());
     EXPECT_NE(std::find(names.begin(), names.end(), "attachment"), names.end());
     const double fine_mass = body.mass().sum();
-    const hierarchy::Hierarchy solver_levels = body.solver_hierarchy(scene.hierarchy, true);
+    const hierarchy::Hierarchy solver_levels = body.solver_hierarchy(true);
     ASSERT_EQ(solver_levels.num_levels(), levels.size() + 1);
     for (size_t l = 0; l < levels.size(); ++l) {
       const auto& level = h.level(static_cast<Index>(l + 1));
@@ -98,10 +101,10 @@ TEST(LevelObjectives, CoarseGradientAtTheInjectedPredictionIsGravity) {
   const double h = 0.01;
   for (bool projective : {false, true}) {
     SCOPED_TRACE(projective ? "projective" : "elastic");
-    sim::ClothBody body(scene.cloths[0], {}, scene.contact, scene.gravity, projective);
+    bodies::ClothBody body(scene.cloths[0], environment(scene, projective, false));
     VecX y = body.prepare_step(0.0, h);  // before the levels exist: they must pick up this step when built
-    const auto levels = body.level_objectives(scene.hierarchy);
-    const auto& hier = body.hierarchy(scene.hierarchy);
+    const auto levels = body.level_objectives();
+    const auto& hier = body.hierarchy();
     for (int step = 0; step < 2; ++step) {
       if (step == 1) {
         body.v() = Vec3(0.3, -0.1, 0.2).replicate(body.mesh().num_vertices(), 1);
@@ -128,9 +131,9 @@ TEST(LevelObjectives, CoarseGradientAtTheInjectedPredictionIsGravity) {
 
 TEST(LevelObjectives, CoarseLevelsFollowPinsObstaclesAndActiveSets) {
   const sim::Scene scene = sheet_scene();
-  sim::ClothBody body(scene.cloths[0], build_obstacles(scene), scene.contact, scene.gravity, true);
-  const auto levels = body.level_objectives(scene.hierarchy);
-  const auto& hier = body.hierarchy(scene.hierarchy);
+  bodies::ClothBody body(scene.cloths[0], environment(scene, true));
+  const auto levels = body.level_objectives();
+  const auto& hier = body.hierarchy();
   const double h = 1.0 / 30.0;
   // The sphere rises towards the sheet at 0.3 m/s: out of reach of the active set (φ < 2d) for the first 20 steps,
   // through the sheet's middle at the 30th.
@@ -171,15 +174,15 @@ TEST(LevelObjectives, GarmentLevelsKeepTheirSeams) {
                   {"hierarchy", {{"max_coarse_vertices", 150}, {"min_coarse_vertices", 50}}}};
   const sim::Scene scene = sim::parse_scene(j, "skirt.json", ".");
   for (bool projective : {false, true}) {
-    sim::ClothBody body(scene.cloths[0], {}, scene.contact, scene.gravity, projective);
-    const auto levels = body.level_objectives(scene.hierarchy);
+    bodies::ClothBody body(scene.cloths[0], environment(scene, projective, false));
+    const auto levels = body.level_objectives();
     ASSERT_GE(levels.size(), 2u);
     const auto names = term_names(body.objective());
     ASSERT_NE(std::find(names.begin(), names.end(), "seam"), names.end());
     for (size_t l = 0; l < levels.size(); ++l) {
       EXPECT_EQ(term_names(*levels[l]), names) << "level " << l + 1;
       // The sewn initial tube: its seams are closed on every level.
-      const VecX x = inject(body.x(), body.hierarchy(scene.hierarchy).level(static_cast<Index>(l + 1)).to_finest);
+      const VecX x = inject(body.x(), body.hierarchy().level(static_cast<Index>(l + 1)).to_finest);
       for (const auto& [name, value] : levels[l]->term_values(x)) {
         if (name == "seam") {
           EXPECT_LT(std::abs(value), 1e-20) << "level " << l + 1;

@@ -24,7 +24,7 @@ sim::Scene small_scene() {
   return sim::parse_scene(j, "test", ".");
 }
 
-Vec3 vertex_of(const sim::ClothBody& c, Index v) { return c.x().segment<3>(3 * v); }
+Vec3 vertex_of(const bodies::ClothBody& c, Index v) { return c.x().segment<3>(3 * v); }
 
 }  // namespace
 

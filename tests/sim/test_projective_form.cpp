@@ -3,7 +3,8 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/physics/projective.hpp>
-#include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/bodies/cloth_body.hpp>
+#include <mgcloth/sim/scene.hpp>
 #include <mgcloth/solvers/newton.hpp>
 
 #include <gtest/gtest.h>
@@ -18,8 +19,9 @@ namespace {
 /// A cloth of a scene in the PD form, stepped as Simulator::step does, by Newton on the PD matrix.
 struct PdCloth {
   explicit PdCloth(const sim::Scene& s) : scene(s) {
-    for (const auto& o : scene.obstacles) obstacles.push_back(o.build());
-    body = std::make_unique<sim::ClothBody>(scene.cloths[0], obstacles, scene.contact, scene.gravity, true);
+    bodies::ClothEnvironment env = sim::cloth_environment(scene);
+    env.energy_form = physics::EnergyForm::Projective;
+    body = std::make_unique<bodies::ClothBody>(scene.cloths[0], env);
     solvers::NewtonParams p;
     p.exact_hessian_below = 0.0;
     p.project_psd = false;  // the PD matrix is PSD; projection would only cost eigen-decompositions
@@ -42,8 +44,7 @@ struct PdCloth {
   }
 
   sim::Scene scene;
-  std::vector<geometry::Obstacle> obstacles;
-  std::unique_ptr<sim::ClothBody> body;
+  std::unique_ptr<bodies::ClothBody> body;
   std::unique_ptr<solvers::Newton> newton;
   double t = 0.0;
   Eigen::Index projected = 0;  ///< coordinates the last step's contact projection moved

@@ -35,8 +35,8 @@ Solved solve_first_step(const sim::Scene& base, const std::string& solver, const
   scene.solver.stop.max_iters = max_iters;
   sim::Simulator sim(scene);
   Solved out;
-  solvers::Problem problem = sim.prepare_shell_problem(0, out.x);
-  out.report = sim.shell_solver(0).minimize(problem, out.x, scene.solver.stop, nullptr);
+  solvers::Problem problem = sim.prepare_problem(0, out.x);
+  out.report = sim.solver(0).minimize(problem, out.x, scene.solver.stop, nullptr);
   return out;
 }
 
@@ -49,8 +49,8 @@ TEST(Rmtr, CoarseModelIsFirstOrderConsistent) {
   scene.solver.name = "rmtr-paper";
   sim::Simulator sim(scene);
   VecX x;
-  sim.prepare_shell_problem(0, x);
-  sim::ShellBody& body = *sim.shells()[0];
+  sim.prepare_problem(0, x);
+  bodies::ShellBody& body = *sim.shells()[0];
   std::mt19937 rng(3);
   std::normal_distribution<double> n(0.0, 1e-3);
   for (Index i = 0; i < x.size(); ++i) x[i] += n(rng);
@@ -80,7 +80,7 @@ TEST(Rmtr, CoarseCorrectionsStayInTheFineTrustRegionAndEnergyDecreases) {
   scene.solver.name = "rmtr-paper";
   sim::Simulator sim(scene);
   VecX x;
-  solvers::Problem problem = sim.prepare_shell_problem(0, x);
+  solvers::Problem problem = sim.prepare_problem(0, x);
   solvers::Rmtr rmtr;
   solvers::Stop stop = scene.solver.stop;
   stop.max_iters = 60;
@@ -147,9 +147,9 @@ TEST(Rmtr, NestedIterationStartsFromTheCoarseSolutionsAndReachesTheSameMinimizer
   scene.solver.stop.max_iters = 30;
   sim::Simulator sim(scene);
   VecX x;
-  solvers::Problem problem = sim.prepare_shell_problem(0, x);
+  solvers::Problem problem = sim.prepare_problem(0, x);
   const double start_energy = problem.objective->value(x);
-  auto& rmtr = dynamic_cast<solvers::Rmtr&>(sim.shell_solver(0));
+  auto& rmtr = dynamic_cast<solvers::Rmtr&>(sim.solver(0));
   const solvers::SolveReport rep = rmtr.minimize(problem, x, scene.solver.stop, nullptr);
   ASSERT_TRUE(rep.converged) << rep.status << " after " << rep.iterations << " cycles";
   EXPECT_LT((x - tr.x).lpNorm<Eigen::Infinity>(), 1e-5);
@@ -216,8 +216,8 @@ TEST(Rmtr, StagnatedSolvesStopAtTheGradientsRoundOffFloor) {
     sc.solver.stop.max_iters = 2000;
     sim::Simulator sim(sc);
     VecX x;
-    solvers::Problem problem = sim.prepare_shell_problem(0, x);
-    const solvers::SolveReport rep = sim.shell_solver(0).minimize(problem, x, sc.solver.stop, nullptr);
+    solvers::Problem problem = sim.prepare_problem(0, x);
+    const solvers::SolveReport rep = sim.solver(0).minimize(problem, x, sc.solver.stop, nullptr);
     const auto floor = physics::gradient_roundoff(*problem.objective, x, 9).back();
     EXPECT_EQ(floor.term, "total");
     EXPECT_GT(floor.change_median, 100.0 * sc.solver.stop.abs_grad) << solver;
@@ -256,8 +256,8 @@ TEST(Rmtr, CoarseLevelsStartFromTheirNestedSolutionsAndResumeFromTheirStates) {
   scene.solver.stop.max_iters = 1;
   sim::Simulator sim(scene);
   VecX x;
-  solvers::Problem problem = sim.prepare_shell_problem(0, x);
-  auto& solver = sim.shell_solver(0);
+  solvers::Problem problem = sim.prepare_problem(0, x);
+  auto& solver = sim.solver(0);
   const auto counter = [](const solvers::SolveReport& r, const std::string& key) {
     for (const auto& [k, v] : r.counters)
       if (k == key) return v;
@@ -275,10 +275,10 @@ TEST(Rmtr, CoarseLevelsStartFromTheirNestedSolutionsAndResumeFromTheirStates) {
   for (const bool handed : {true, false}) {
     sim::Simulator again(fine);
     VecX y;
-    solvers::Problem p = again.prepare_shell_problem(0, y);
+    solvers::Problem p = again.prepare_problem(0, y);
     y = x;
-    if (handed) again.shell_solver(0).resume_level_states(states);
-    const auto rep = again.shell_solver(0).minimize(p, y, fine.solver.stop, nullptr);
+    if (handed) again.solver(0).resume_level_states(states);
+    const auto rep = again.solver(0).minimize(p, y, fine.solver.stop, nullptr);
     EXPECT_EQ(counter(rep, "level1_starts_kept") >= 1.0, handed) << (handed ? "handed" : "not handed");
   }
 }
@@ -341,8 +341,8 @@ TEST(Rmtr, BacktrackedCoarseCorrectionsKeepTheEnergyDecreasingAndReachTheHanging
   s.solver.stop.max_iters = 150;
   sim::Simulator sim(s);
   VecX x;
-  solvers::Problem problem = sim.prepare_shell_problem(0, x);
-  auto& rmtr = dynamic_cast<solvers::Rmtr&>(sim.shell_solver(0));
+  solvers::Problem problem = sim.prepare_problem(0, x);
+  auto& rmtr = dynamic_cast<solvers::Rmtr&>(sim.solver(0));
   const auto rep = rmtr.minimize(problem, x, s.solver.stop, nullptr);
   ASSERT_TRUE(rep.converged) << rep.status << " after " << rep.iterations << " cycles, |g| = " << rep.grad_norm;
   EXPECT_NEAR(rep.energy, -0.524, 2e-3);

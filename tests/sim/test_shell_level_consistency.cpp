@@ -19,8 +19,8 @@ TEST(ShellLevels, ProlongatedStatesKeepTheirEnergyTermByTerm) {
     scene.solver.name = "rmtr";
     sim::Simulator sim(scene);
     VecX x;
-    sim.prepare_shell_problem(0, x);
-    sim::ShellBody& body = *sim.shells()[0];
+    sim.prepare_problem(0, x);
+    bodies::ShellBody& body = *sim.shells()[0];
     // A smooth sag of the coarsest control mesh: z -= 0.2 sin(pi u) sin(pi v) over its bounding box.
     VecX q;
     body.project(1, x, q);

@@ -20,7 +20,7 @@ sim::Scene shipped(const std::string& name, int vertices, int frames) {
   return sim::parse_scene(j, path, fs::path(path).parent_path());
 }
 
-double angular_momentum_z(const sim::ClothBody& c) {
+double angular_momentum_z(const bodies::ClothBody& c) {
   double L = 0.0;
   for (Index i = 0; i < c.mesh().num_vertices(); ++i) {
     const Vec3 x = c.x().segment<3>(3 * i), v = c.v().segment<3>(3 * i);
@@ -175,7 +175,7 @@ TEST(Simulation, TubeGarmentStaysStitchedOnASphere) {
   sim::Simulator s(sim::parse_scene(j, "skirt.json", "."));
   const auto& body = *s.cloths()[0];
   ASSERT_FALSE(body.topology().stitch_groups.empty());
-  EXPECT_GE(s.cloths()[0]->hierarchy(s.scene().hierarchy).num_levels(), 3);
+  EXPECT_GE(s.cloths()[0]->hierarchy().num_levels(), 3);
   int converged = 0;
   while (s.frame() < 12)
     for (const auto& st : s.advance_frame()) converged += st.report.converged;

@@ -68,7 +68,7 @@ class DeviceFmg {
   virtual Outcome minimize(const physics::Objective& objective,
                            const std::vector<const linalg::StencilTable*>& prolongations, bool project, VecX& x,
                            const Limits& limits, bool trace) = 0;
-  /// The time step's end on the device, after minimize() on the same objective (what sim::ClothBody::finish_step
+  /// The time step's end on the device, after minimize() on the same objective (what bodies::ClothBody::finish_step
   /// does on the CPU): the solution projected out of the obstacles (§4.5), v = (x − x_old)/h, and the friction
   /// filter against the obstacles at the step's end (hd::filter_velocity). x (the solution minimize() left on the
   /// device) and v come back in the problem's numbering.

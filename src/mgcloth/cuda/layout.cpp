@@ -2,6 +2,7 @@
 #include <mgcloth/cuda/layout.hpp>
 #include <mgcloth/linalg/coloring.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
+#include <mgcloth/physics/sub_objective.hpp>
 #include <mgcloth/physics/attachment.hpp>
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/contact.hpp>
@@ -201,6 +202,9 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
       O.thickness = c->params().thickness;
       O.contact_k.resize(static_cast<size_t>(O.n));
       for (Index r = 0; r < O.n; ++r) O.contact_k[static_cast<size_t>(r)] = c->vertex_stiffness(top.perm[static_cast<size_t>(r)]);
+    } else if (dynamic_cast<const physics::SubObjectiveTerm*>(t)) {
+      throw InputError("fmg-cuda: the device pipeline solves one body at a time (its data come from a body's own "
+                       "terms); for a scene of several bodies set \"solve_bodies\": \"separately\" or use \"fmg\"");
     } else {
       throw InputError(fmt::format(
           "fmg-cuda: the objective's term \"{}\" has no device implementation (the GPU pipeline takes inertia, gravity, "

@@ -6,6 +6,12 @@
 #include <string_view>
 
 namespace mgcloth::geometry {
+
+Eigen::Quaterniond euler_xyz_deg(const Vec3& degrees) {
+  const Vec3 r = degrees * (M_PI / 180.0);
+  return Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
+         Eigen::AngleAxisd(r.x(), Vec3::UnitX());
+}
 namespace {
 
 /// Unit rotation quaternion; a zero or non-finite quaternion is a user error, a non-unit one is only rounding.

@@ -7,6 +7,10 @@
 namespace mgcloth::geometry {
 
 /// World placement of a rigid body: p_world = rotation * p_local + translation.
+/// The rotation of XYZ Euler angles in degrees: about X first, then Y, then Z (extrinsic), R = Rz Ry Rx (the
+/// scene format's `rotation`).
+Eigen::Quaterniond euler_xyz_deg(const Vec3& degrees);
+
 struct Pose {
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Vec3 translation = Vec3::Zero();

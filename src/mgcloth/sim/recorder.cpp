@@ -41,15 +41,6 @@ void remove_stale_temporaries(const fs::path& dir) {
   for (const auto& file : remove_atomic_temporaries(dir, is_run_output))
     logger().debug("removed {}, left by an earlier run", file.string());
 }
-/// Probes are numbered across shells in scene order: the first probe of shell `name`.
-size_t probe_offset(const Simulator& sim, const std::string& name) {
-  size_t offset = 0;
-  for (const auto& sh : sim.shells()) {
-    if (sh->name() == name) return offset;
-    offset += sh->spec().probes.size();
-  }
-  return offset;
-}
 }  // namespace
 
 std::uint64_t scene_fingerprint(const Scene& scene) {
@@ -75,18 +66,13 @@ Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
   m_trace.header = "frame,step,cloth,iteration,energy,grad_norm,wall_ms,alpha";
   Index offset = 0;
   std::vector<Vec2> u;
-  for (const auto& c : sim.cloths()) {
-    const auto& m = c->mesh();
-    for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(m.u.col(i) / c->material_scale());
+  for (const auto& body : sim.bodies()) {
+    const auto& m = body->surface_mesh();
+    const Mat2X uv = body->surface_uv();
+    for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(uv.col(i));
     for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
     offset += m.num_vertices();
-  }
-  for (const auto& sh : sim.shells()) {
-    const auto& m = sh->display_mesh();
-    for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(m.u.col(i));
-    for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-    offset += m.num_vertices();
-    m_record_probes = m_record_probes || !sh->spec().probes.empty();
+    m_record_probes = m_record_probes || body->num_probes() > 0;
   }
   m_probes.name = "probes.csv";
   m_probes.header = "step,load_factor,probe,x,y,z,ux,uy,uz";
@@ -129,7 +115,7 @@ std::string Recorder::stats_header() {
 std::string Recorder::stats_row(const StepStats& s) {
   const auto& r = s.report;
   return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{}", s.frame, s.step, s.sim_time, s.solver,
-                     r.iterations, r.energy, r.grad_norm, s.wall_ms, s.cloth,
+                     r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected);
 }
 
@@ -156,14 +142,9 @@ void Recorder::start(const Simulator& sim) {
 Mat3X Recorder::surface_positions(const Simulator& sim) const {
   Mat3X x(3, m_combined.u.cols());
   Index offset = 0;
-  for (const auto& c : sim.cloths()) {
-    const Index n = c->mesh().num_vertices();
-    x.middleCols(offset, n) = as_columns(c->x());
-    offset += n;
-  }
-  for (const auto& sh : sim.shells()) {
-    const Index n = sh->display_mesh().num_vertices();
-    x.middleCols(offset, n) = sh->display_positions();
+  for (const auto& body : sim.bodies()) {
+    const Index n = body->surface_mesh().num_vertices();
+    x.middleCols(offset, n) = body->surface_positions();
     offset += n;
   }
   return x;
@@ -285,12 +266,8 @@ void Recorder::write_checkpoint(const Simulator& sim) const {
   c.fingerprint = m_fingerprint;
   c.frame = sim.frame();
   c.step = sim.step_count();
-  const size_t cloths = sim.cloths().size();
-  for (size_t k = 0; k < cloths + sim.shells().size(); ++k) {
-    const auto& x = k < cloths ? sim.cloths()[k]->x() : sim.shells()[k - cloths]->x();
-    const auto& v = k < cloths ? sim.cloths()[k]->v() : sim.shells()[k - cloths]->v();
-    c.bodies.push_back({x, v, sim.solver_state(k)});
-  }
+  for (size_t k = 0; k < sim.bodies().size(); ++k)
+    c.bodies.push_back({sim.bodies()[k]->x(), sim.bodies()[k]->v(), sim.solver_state(k)});
   const std::string bytes = encode_checkpoint(c);
   write_file_atomic(m_dir / kCheckpointFile, [&](std::ostream& o) { o.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); }, true);
 }
@@ -331,11 +308,11 @@ void Recorder::record_frame(const Simulator& sim, const std::vector<StepStats>& 
     for (size_t p = 0; p < s.probes.size(); ++p) {
       const auto& r = s.probes[p];
       m_probes.rows.push_back(fmt::format("{},{:.9g},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}", s.step,
-                                          s.load_factor, probe_offset(sim, s.cloth) + p, r.x.x(), r.x.y(), r.x.z(),
+                                          s.load_factor, s.first_probe + p, r.x.x(), r.x.y(), r.x.z(),
                                           r.u.x(), r.u.y(), r.u.z()));
     }
     for (const auto& t : s.trace)
-      m_trace.rows.push_back(fmt::format("{},{},{},{},{:.17g},{:.9g},{:.3f},{:.6g}", s.frame, s.step, s.cloth, t.iteration,
+      m_trace.rows.push_back(fmt::format("{},{},{},{},{:.17g},{:.9g},{:.3f},{:.6g}", s.frame, s.step, s.body, t.iteration,
                                          t.energy, t.grad_norm, t.wall_ms, t.step));
   }
   write_frame(sim);
@@ -351,7 +328,7 @@ void Recorder::resume(Simulator& sim) {
   const Checkpoint c = decode_checkpoint(read_file(file), file);
   if (c.fingerprint != m_fingerprint)
     throw InputError(fmt::format("{}: written by a different scene (physics, cloths or solver changed); start a new run instead of --resume", file.string()));
-  const size_t bodies = sim.cloths().size() + sim.shells().size();
+  const size_t bodies = sim.bodies().size();
   if (c.bodies.size() != bodies)
     throw InputError(fmt::format("{}: has {} bodies, the scene has {}", file.string(), c.bodies.size(), bodies));
   std::vector<VecX> xs, vs;

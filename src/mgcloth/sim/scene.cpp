@@ -10,13 +10,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Eigen::Quaterniond euler_xyz_deg(const Vec3& deg) {
-  const Vec3 r = deg * (M_PI / 180.0);
-  // Rotate about X first, then Y, then Z (extrinsic), i.e. R = Rz Ry Rx.
-  return Eigen::AngleAxisd(r.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(r.y(), Vec3::UnitY()) *
-         Eigen::AngleAxisd(r.x(), Vec3::UnitX());
-}
-
+using geometry::euler_xyz_deg;
 
 physics::Material parse_material(JsonReader r, std::string& preset) {
   preset = r.choice("preset", "cotton", material_presets());
@@ -185,8 +179,6 @@ ObstacleSpec parse_obstacle(JsonReader r, size_t index) {
 
 }  // namespace
 
-Eigen::Quaterniond Transform::rotation() const { return euler_xyz_deg(rotation_deg); }
-
 geometry::Obstacle ObstacleSpec::build() const {
   geometry::Obstacle ob;
   ob.name = name;
@@ -244,6 +236,7 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   s.threads = r.integer("threads", s.threads, 0, 1024);
   const std::string form = r.choice("energy_form", physics::energy_form_name(s.energy_form), physics::energy_form_names());
   s.energy_form = physics::energy_form_of(form);
+  s.solve_jointly = r.choice("solve_bodies", "jointly", {"jointly", "separately"}) == "jointly";
   const auto cloths = r.objects("cloths");
   const auto shells = r.objects("shells");
   for (size_t i = 0; i < shells.size(); ++i) {
@@ -321,6 +314,16 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   return s;
 }
 
+bodies::ClothEnvironment cloth_environment(const Scene& scene) {
+  bodies::ClothEnvironment env;
+  for (const auto& o : scene.obstacles) env.obstacles.push_back(o.build());
+  env.contact = scene.contact;
+  env.gravity = scene.gravity;
+  env.energy_form = scene.energy_form;
+  env.hierarchy = scene.hierarchy;
+  return env;
+}
+
 Scene load_scene(const fs::path& path) {
   if (!fs::exists(path)) throw InputError(fmt::format("{}: no such scene file", path.string()));
   const Json j = load_json(path.string());
@@ -335,6 +338,7 @@ Json to_json(const Scene& s) {
   j["frames"] = s.frames;
   j["threads"] = s.threads;
   j["energy_form"] = physics::energy_form_name(s.energy_form);
+  j["solve_bodies"] = s.solve_jointly ? "jointly" : "separately";
   j["cloths"] = Json::array();
   for (const auto& c : s.cloths) {
     Json cj;

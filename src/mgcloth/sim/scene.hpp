@@ -1,4 +1,5 @@
 #pragma once
+#include <mgcloth/bodies/cloth_body.hpp>
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/geometry/obstacle.hpp>
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>
@@ -9,52 +10,15 @@
 #include <mgcloth/sim/shell_scene.hpp>
 #include <mgcloth/solvers/factory.hpp>
 
-#include <Eigen/Geometry>
 #include <filesystem>
 #include <optional>
 
 namespace mgcloth::sim {
 
-/// Where a cloth's mesh comes from: an OBJ file or a generator.
-struct MeshSource {
-  std::string file;             ///< resolved path when the mesh is read from OBJ (empty: generated)
-  double material_scale = 1.0;  ///< metres per UV unit
-  std::string generator = "rectangle";  ///< rectangle | tube
-  mesh::RectangleSpec rectangle;
-  mesh::TubeSpec tube;
-};
-
-/// Rigid placement of a cloth's initial state: x = R p + t (R from XYZ Euler angles in degrees).
-struct Transform {
-  Vec3 translation = Vec3::Zero();
-  Vec3 rotation_deg = Vec3::Zero();
-  Eigen::Quaterniond rotation() const;
-};
-
-/// A set of pinned vertices pulled to targets by stiff springs; the targets start at the vertices' initial
-/// positions and follow an offset over time (none, constant velocity, or keyframes).
-struct PinSpec {
-  std::vector<Index> vertices;  ///< by index
-  std::vector<Vec2> points;     ///< by material coordinate: the nearest vertex
-  std::optional<std::pair<Vec2, Vec2>> region;  ///< every vertex in a material-space box
-  double stiffness = 1.0e4;     ///< N/m
-  std::string motion = "none";  ///< none | constant_velocity | keyframes
-  Vec3 velocity = Vec3::Zero();
-  std::vector<double> key_times;
-  std::vector<Vec3> key_offsets;
-};
-
-struct ClothSpec {
-  std::string name = "cloth";
-  MeshSource mesh;
-  Transform transform;
-  std::string preset = "cotton";
-  physics::Material material;
-  std::vector<PinSpec> pins;
-  Vec3 initial_velocity = Vec3::Zero();
-  /// N/m, the springs closing stitched seams; 0 in a spec means "100 × in-plane stiffness E·t" (resolved at parse).
-  double seam_stiffness = 0.0;
-};
+using bodies::ClothSpec;
+using bodies::MeshSource;
+using bodies::PinSpec;
+using bodies::Transform;
 
 struct ObstacleSpec {
   std::string name;
@@ -91,6 +55,9 @@ struct Scene {
   int threads = 0;                 ///< 0: all cores
   /// The form of the cloths' energy that every step minimizes; the solver must be able to minimize it.
   physics::EnergyForm energy_form = physics::EnergyForm::Elastic;
+  /// Whether a step minimizes one objective over every body ("jointly", the default: what terms that couple bodies
+  /// need) or each body's on its own ("separately", one solver per body).
+  bool solve_jointly = true;
   std::vector<ClothSpec> cloths;
   /// Subdivision Kirchhoff-Love shells (Kopaničáková 2019): stepped with the same solver; no obstacle contact.
   std::vector<ShellSpec> shells;
@@ -111,6 +78,9 @@ Scene load_scene(const std::filesystem::path& path);
 Scene parse_scene(const Json& json, const std::string& file, const std::filesystem::path& base_dir);
 /// Every field with its value, defaults included (written next to the outputs as the resolved scene).
 Json to_json(const Scene& scene);
+/// What the scene gives every cloth body (bodies::ClothEnvironment): its obstacles (built from their specs),
+/// contact, gravity, energy form and hierarchy settings.
+bodies::ClothEnvironment cloth_environment(const Scene& scene);
 /// Material presets by name ("cotton", "silk", "denim", "leather").
 physics::Material material_preset(const std::string& name);
 std::vector<std::string> material_presets();

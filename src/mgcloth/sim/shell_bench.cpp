@@ -228,8 +228,10 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
                               level);
           scene.solver.params["initial"] = "fine";
         }
+        scene.solve_jointly = false;  // each shell is a row of its own
         Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
+          const size_t group = sim.group_of(sim.scene().cloths.size() + s);
           ShellBenchRow row;
           row.scene = base.file;
           row.shell = sim.shells()[s]->name();
@@ -250,17 +252,17 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             continue;
           }
           VecX x;
-          solvers::Problem problem = sim.prepare_shell_problem(s, x);
+          solvers::Problem problem = sim.prepare_problem(group, x);
           if (before) {
             x = resumed;
-            sim.shell_solver(s).resume_level_states(resumed_levels);
+            sim.solver(group).resume_level_states(resumed_levels);
             logger().info("{} level {} {}: resumed after {} iterations ({}{})", row.shell, level, spec.label,
                           before->iterations, state.string(),
                           resumed_levels.empty() ? "" : fmt::format(", with {} coarse level states", resumed_levels.size()));
           } else if (const ShellBenchState* st = start_for(row.shell, level)) {
             std::vector<VecX> start_levels;
             start_from_coarser(*sim.shells()[s], *st, x, start_levels);
-            sim.shell_solver(s).resume_level_states(start_levels);
+            sim.solver(group).resume_level_states(start_levels);
             started_from = st->level;
             logger().info("{} level {} {}: starts from the level-{} solution of {} ({} control points){}", row.shell,
                           level, spec.label, st->level, st->file, st->x.size() / 3,
@@ -288,13 +290,13 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
                 for (const auto& [k, v] : before->counters)
                   if (spent_by_first_part(k)) c.counters.emplace_back(k, v);
               if (started_from > 0) c.counters.emplace_back("started_from_level", started_from);
-              write_state(state, c, xc, sim.shell_solver(s).level_states());
+              write_state(state, c, xc, sim.solver(group).level_states());
               logger().debug("{} level {} {}: checkpoint after {} iterations ({})", row.shell, level, spec.label,
                              c.iterations, state.string());
             };
           }
           try {
-            const auto rep = sim.shell_solver(s).minimize(problem, x, stop, nullptr);
+            const auto rep = sim.solver(group).minimize(problem, x, stop, nullptr);
             row.iterations = rep.iterations;
             row.converged = rep.converged;
             row.status = rep.status;
@@ -317,7 +319,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
             row.counters.emplace_back("resumed_iterations", before->iterations);
           }
           if (started_from > 0) row.counters.emplace_back("started_from_level", started_from);  // resumed: kept above
-          if (!state.empty() && row.status != "diverged") write_state(state, row, x, sim.shell_solver(s).level_states());
+          if (!state.empty() && row.status != "diverged") write_state(state, row, x, sim.solver(group).level_states());
           logger().info("{} level {} ({} dofs) {}: {} iterations, {} in {:.2f} s", row.shell, level, row.dofs,
                         spec.label, row.iterations, row.status, row.wall_s);
           rows.push_back(std::move(row));

@@ -4,6 +4,8 @@
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <fmt/ranges.h>
+
 #include <algorithm>
 #include <memory>
 
@@ -67,38 +69,87 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
     m_steering.push_back(std::make_shared<SteerableMotion>(m_obstacles.back().motion));
     m_obstacles.back().motion = m_steering.back();
   }
+  bodies::ClothEnvironment env = cloth_environment(m_scene);
+  env.obstacles = m_obstacles;  // with their steerable motions
   for (size_t i = 0; i < m_scene.cloths.size(); ++i) {
     const auto& c = m_scene.cloths[i];
-    // One solver per cloth: solvers keep per-pattern state (the CHOLMOD analysis).
-    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
+    std::unique_ptr<ClothBody> body;
     try {
-      building([&] { return fmt::format("cloth \"{}\" ({}: cloths[{}])", c.name, m_scene.file, i); }, [&] {
-        m_cloths.push_back(std::make_unique<ClothBody>(c, m_obstacles, m_scene.contact, m_scene.gravity,
-                                                       m_scene.energy_form == physics::EnergyForm::Projective,
-                                                       i < meshes.size() ? meshes[i].get() : nullptr));
-      });
+      building([&] { return fmt::format("cloth \"{}\" ({}: cloths[{}])", c.name, m_scene.file, i); },
+               [&] { body = std::make_unique<ClothBody>(c, env, i < meshes.size() ? meshes[i].get() : nullptr); });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: cloths[{}] (\"{}\"): {}", m_scene.file, i, c.name, e.what()));
     }
-    check_start_outside_obstacles(i);
+    check_start_outside_obstacles(i, *body);
+    m_bodies.push_back(std::move(body));
   }
   for (size_t i = 0; i < m_scene.shells.size(); ++i) {
     const auto& spec = m_scene.shells[i];
-    m_shell_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
     try {
       building([&] { return fmt::format("shell \"{}\" ({}: shells[{}], level {})", spec.name, m_scene.file, i, spec.level); },
-               [&] { m_shells.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file)); });
+               [&] { m_bodies.push_back(std::make_unique<ShellBody>(spec, m_scene.gravity, m_scene.file)); });
     } catch (const InputError& e) {
       throw InputError(fmt::format("{}: shells[{}] (\"{}\"): {}", m_scene.file, i, spec.name, e.what()));
     }
   }
+  std::vector<Body*> all;
+  for (auto& b : m_bodies) all.push_back(b.get());
+  if (m_scene.solve_jointly && !all.empty()) {
+    m_groups.push_back(std::make_unique<bodies::Assembly>(all));
+    m_group_of.assign(all.size(), 0);
+  } else {
+    for (size_t b = 0; b < all.size(); ++b) {
+      m_groups.push_back(std::make_unique<bodies::Assembly>(std::vector<Body*>{all[b]}));
+      m_group_of.push_back(b);
+    }
+  }
+  for (size_t g = 0; g < m_groups.size(); ++g)
+    m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
 }
 
-void Simulator::check_start_outside_obstacles(size_t c) const {
+namespace {
+/// A group in messages: `cloth "sheet"`, or `bodies "sheet", "skirt"`.
+std::string group_label(const bodies::Assembly& g) {
+  if (g.bodies().size() == 1) return fmt::format("{} \"{}\"", g.bodies()[0]->kind(), g.bodies()[0]->name());
+  std::vector<std::string> names;
+  for (const Body* b : g.bodies()) names.push_back(fmt::format("\"{}\"", b->name()));
+  return fmt::format("bodies {}", fmt::join(names, ", "));
+}
+std::string group_size(const bodies::Assembly& g) {
+  std::vector<std::string> sizes;
+  for (const Body* b : g.bodies()) sizes.push_back(b->size_text());
+  return fmt::format("{}", fmt::join(sizes, " + "));
+}
+}  // namespace
+
+size_t Simulator::body_index(const std::string& name) const {
+  std::vector<std::string> names;
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    if (m_bodies[b]->name() == name) return b;
+    names.push_back(fmt::format("\"{}\"", m_bodies[b]->name()));
+  }
+  throw InputError(fmt::format("{}: no body named \"{}\" (the scene has {})", m_scene.file, name,
+                               names.empty() ? std::string("none") : fmt::format("{}", fmt::join(names, ", "))));
+}
+
+std::vector<ClothBody*> Simulator::cloths() const {
+  std::vector<ClothBody*> out;
+  for (const auto& b : m_bodies)
+    if (auto* c = dynamic_cast<ClothBody*>(b.get())) out.push_back(c);
+  return out;
+}
+
+std::vector<ShellBody*> Simulator::shells() const {
+  std::vector<ShellBody*> out;
+  for (const auto& b : m_bodies)
+    if (auto* s = dynamic_cast<ShellBody*>(b.get())) out.push_back(s);
+  return out;
+}
+
+void Simulator::check_start_outside_obstacles(size_t c, const ClothBody& body) const {
   // A cloth that starts deep inside an obstacle cannot be simulated: projecting its vertices out piles them onto the
   // surface (degenerate triangles, non-finite bending), and the first solve fails far from the cause. Within the
   // contact layer the projection is a small push, so only depths beyond the layer's thickness are refused.
-  const ClothBody& body = *m_cloths[c];
   const VecX& x = body.x();
   const double limit = m_scene.contact.thickness;
   for (size_t o = 0; o < m_obstacles.size(); ++o) {
@@ -120,33 +171,22 @@ void Simulator::check_start_outside_obstacles(size_t c) const {
   }
 }
 
-solvers::Problem Simulator::prepare_shell_problem(size_t s, VecX& x0, double* load_factor) {
+solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_factor) {
+  bodies::Assembly& group = *m_groups[g];
+  // Static shells step the load: step k of K applies k/K of it (Kopaničáková 2019 §7).
   const double lambda = std::min(1.0, static_cast<double>(m_step + 1) / static_cast<double>(std::max(1L, m_scene.total_steps())));
-  ShellBody& body = *m_shells[s];
-  x0 = body.prepare_step(time() + m_scene.step_size(), m_scene.step_size(), lambda);
-  if (load_factor) *load_factor = body.is_static() ? lambda : 1.0;
-  solvers::Problem problem;
-  problem.objective = &body.objective();
-  const solvers::NonlinearSolver& solver = *m_shell_solvers[s];
-  if (solver.needs_hierarchy() || solver.needs_level_objectives())
-    problem.hierarchy = body.solver_hierarchy(solver.needs_level_objectives());
-  return problem;
-}
-
-solvers::Problem Simulator::prepare_problem(size_t c, VecX& x0) {
-  ClothBody& body = *m_cloths[c];
-  x0 = body.prepare_step(time(), m_scene.step_size());
-  solvers::Problem problem;
-  problem.objective = &body.objective();
-  const solvers::NonlinearSolver& solver = *m_solvers[c];
-  if (solver.needs_hierarchy() || solver.needs_level_objectives())
-    problem.hierarchy = body.solver_hierarchy(m_scene.hierarchy, solver.needs_level_objectives());
-  if (body.contact()) {
-    const auto* contact = body.contact();
-    problem.project = [contact](VecX& y) {
-      return physics::project_out_of_obstacles(y, contact->obstacle_data());
-    };
+  x0 = group.prepare_step({time(), m_scene.step_size(), lambda});
+  if (load_factor) {
+    *load_factor = 1.0;
+    for (const Body* b : group.bodies())
+      if (b->is_static()) *load_factor = lambda;
   }
+  solvers::Problem problem;
+  problem.objective = &group.objective();
+  const solvers::NonlinearSolver& solver = *m_solvers[g];
+  if (solver.needs_hierarchy() || solver.needs_level_objectives())
+    problem.hierarchy = group.solver_hierarchy(solver.needs_level_objectives());
+  problem.project = group.feasibility_projection();
   return problem;
 }
 
@@ -154,62 +194,46 @@ std::vector<StepStats> Simulator::step() {
   const double h = m_scene.step_size();
   const double t = time();
   std::vector<StepStats> out;
-  // The fields every body's row shares.
-  const auto finish = [&](StepStats& s, const std::string& name, const solvers::NonlinearSolver& solver, const Timer& timer) {
-    s.frame = m_frame + 1;
-    s.step = m_step + 1;
-    s.sim_time = t + h;
-    s.cloth = name;
-    s.solver = solver.name();
-    s.wall_ms = timer.ms();
-    out.push_back(std::move(s));
-  };
-  for (size_t c = 0; c < m_cloths.size(); ++c) {
+  size_t probes_before = 0;  // probes of the groups before this one
+  for (size_t g = 0; g < m_groups.size(); ++g) {
     Timer timer;
-    ClothBody& body = *m_cloths[c];
-    VecX x;
-    solvers::Problem problem = prepare_problem(c, x);
+    bodies::Assembly& group = *m_groups[g];
+    solvers::NonlinearSolver& solver = *m_solvers[g];
     StepStats s;
+    VecX x;
+    solvers::Problem problem = prepare_problem(g, x, &s.load_factor);
     try {
       s.report = building(
           [&] {
-            return fmt::format("the solve of step {} of cloth \"{}\" ({} vertices, solver {}: its matrices and levels)",
-                               m_step + 1, body.name(), body.mesh().num_vertices(), m_solvers[c]->name());
+            return fmt::format("the solve of step {} of {} ({}, solver {}: its matrices and levels)", m_step + 1,
+                               group_label(group), group_size(group), solver.name());
           },
-          [&] { return m_solvers[c]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
+          [&] { return solver.minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
     } catch (const SolveError& e) {
-      throw SolveError(fmt::format("{}: cloth \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
+      throw SolveError(fmt::format("{}: {}, frame {}, step {} (t = {:.4f} s): {}", m_scene.file, group_label(group),
                                    m_frame + 1, m_step + 1, t + h, e.what()));
     }
     const VecX before = x;
     VecX v;
-    if (m_solvers[c]->finish_step(body.x(), h, x, v))
-      body.accept_step(x, v);
+    if (solver.finish_step(group.x(), h, x, v))
+      group.accept_step(x, v);
     else
-      body.finish_step(x, h);
+      group.finish_step(x, h);
     s.projected = static_cast<Index>(((x - before).array() != 0.0).reshaped(3, x.size() / 3).colwise().any().count());
-    finish(s, body.name(), *m_solvers[c], timer);
-  }
-  for (size_t i = 0; i < m_shells.size(); ++i) {
-    Timer timer;
-    ShellBody& body = *m_shells[i];
-    StepStats s;
-    VecX x;
-    solvers::Problem problem = prepare_shell_problem(i, x, &s.load_factor);
-    try {
-      s.report = building(
-          [&] {
-            return fmt::format("the solve of step {} of shell \"{}\" ({} control points, solver {}: its matrices and "
-                               "levels)", m_step + 1, body.name(), body.x().size() / 3, m_shell_solvers[i]->name());
-          },
-          [&] { return m_shell_solvers[i]->minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
-    } catch (const SolveError& e) {
-      throw SolveError(fmt::format("{}: shell \"{}\", frame {}, step {} (t = {:.4f} s): {}", m_scene.file, body.name(),
-                                   m_frame + 1, m_step + 1, t + h, e.what()));
+    std::vector<std::string> names;
+    for (const Body* b : group.bodies()) {
+      names.push_back(b->name());
+      for (auto& p : b->probes()) s.probes.push_back(p);
     }
-    body.finish_step(x, h);
-    s.probes = body.probes();
-    finish(s, body.name(), *m_shell_solvers[i], timer);
+    s.first_probe = probes_before;
+    probes_before += s.probes.size();
+    s.frame = m_frame + 1;
+    s.step = m_step + 1;
+    s.sim_time = t + h;
+    s.body = fmt::format("{}", fmt::join(names, "+"));
+    s.solver = solver.name();
+    s.wall_ms = timer.ms();
+    out.push_back(std::move(s));
   }
   ++m_step;
   return out;
@@ -226,8 +250,9 @@ std::vector<StepStats> Simulator::advance_frame() {
 }
 
 void Simulator::set_pin_targets(size_t c, const std::vector<Vec3>& targets) {
-  if (c >= m_cloths.size()) throw_input_error("cloth {} out of range (the scene has {} cloths)", c, m_cloths.size());
-  m_cloths[c]->set_pin_targets(targets, time(), time() + m_scene.frame_time);
+  auto* cloth = c < m_bodies.size() ? dynamic_cast<ClothBody*>(m_bodies[c].get()) : nullptr;
+  if (!cloth) throw_input_error("cloth {} out of range (the scene has {} cloths)", c, m_scene.cloths.size());
+  cloth->set_pin_targets(targets, time(), time() + m_scene.frame_time);
 }
 
 void Simulator::set_obstacle_pose(size_t o, const geometry::Pose& pose) {
@@ -239,45 +264,45 @@ void Simulator::set_obstacle_pose(size_t o, const geometry::Pose& pose) {
 }
 
 void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v) {
-  if (x.size() != m_cloths.size() + m_shells.size() || v.size() != x.size())
+  if (x.size() != m_bodies.size() || v.size() != x.size())
     throw InputError(fmt::format("the state has {} bodies, the scene has {} cloths and {} shells", x.size(),
-                                 m_cloths.size(), m_shells.size()));
-  for (size_t s = 0; s < m_shells.size(); ++s) {
-    const size_t k = m_cloths.size() + s;
-    if (x[k].size() != m_shells[s]->x().size() || v[k].size() != m_shells[s]->v().size())
-      throw InputError(fmt::format("shell \"{}\" has {} dofs, the scene's shell has {}", m_shells[s]->name(),
-                                   x[k].size(), m_shells[s]->x().size()));
-    m_shells[s]->x() = x[k];
-    m_shells[s]->v() = v[k];
+                                 m_scene.cloths.size(), m_scene.shells.size()));
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    Body& body = *m_bodies[b];
+    if (x[b].size() != body.x().size() || v[b].size() != body.v().size())
+      throw InputError(fmt::format("{} \"{}\" has {} dofs, the scene's has {}", body.kind(), body.name(), x[b].size(),
+                                   body.x().size()));
   }
-  for (size_t c = 0; c < m_cloths.size(); ++c) {
-    if (x[c].size() != m_cloths[c]->x().size() || v[c].size() != m_cloths[c]->v().size())
-      throw InputError(fmt::format("cloth \"{}\" has {} dofs, the scene's mesh has {}", m_cloths[c]->name(),
-                                   x[c].size(), m_cloths[c]->x().size()));
-    m_cloths[c]->x() = x[c];
-    m_cloths[c]->v() = v[c];
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    m_bodies[b]->x() = x[b];
+    m_bodies[b]->v() = v[b];
   }
   m_frame = frame;
   m_step = step;
 }
 
 std::string Simulator::solver_state(size_t body) const {
-  const size_t cloths = m_cloths.size();
-  if (body >= cloths + m_shells.size())
-    throw_error("solver state of body {}, the scene has {} cloths and {} shells", body, cloths, m_shells.size());
-  return (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->carried_state();
+  if (body >= m_bodies.size()) throw_error("solver state of body {}, the scene has {} bodies", body, m_bodies.size());
+  const size_t g = m_group_of[body];
+  if (m_groups[g]->bodies().front() != m_bodies[body].get()) return {};
+  return m_solvers[g]->carried_state();
 }
 
 void Simulator::set_solver_state(size_t body, std::string_view state) {
-  const size_t cloths = m_cloths.size();
-  if (body >= cloths + m_shells.size())
-    throw InputError(fmt::format("solver state for body {}, the scene has {} cloths and {} shells", body, cloths,
-                                 m_shells.size()));
+  if (body >= m_bodies.size())
+    throw InputError(fmt::format("solver state for body {}, the scene has {} bodies", body, m_bodies.size()));
+  const size_t g = m_group_of[body];
+  const Body& b = *m_bodies[body];
+  if (m_groups[g]->bodies().front() != &b) {
+    if (!state.empty())
+      throw InputError(fmt::format("{} \"{}\": a solver state for a body solved jointly with \"{}\", which keeps "
+                                   "its group's", b.kind(), b.name(), m_groups[g]->bodies().front()->name()));
+    return;
+  }
   try {
-    (body < cloths ? m_solvers[body] : m_shell_solvers[body - cloths])->restore_carried_state(state);
+    m_solvers[g]->restore_carried_state(state);
   } catch (const InputError& e) {
-    throw InputError(fmt::format("{} \"{}\": {}", body < cloths ? "cloth" : "shell",
-                                 body < cloths ? m_cloths[body]->name() : m_shells[body - cloths]->name(), e.what()));
+    throw InputError(fmt::format("{} \"{}\": {}", b.kind(), b.name(), e.what()));
   }
 }
 

@@ -1,20 +1,26 @@
 #pragma once
-#include <mgcloth/sim/cloth_body.hpp>
-#include <mgcloth/sim/shell_body.hpp>
+#include <mgcloth/bodies/assembly.hpp>
+#include <mgcloth/bodies/cloth_body.hpp>
+#include <mgcloth/bodies/shell_body.hpp>
+#include <mgcloth/sim/scene.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
-#include <map>
 #include <memory>
 #include <string_view>
 
 namespace mgcloth::sim {
 
-/// Statistics of one implicit-Euler step of one cloth.
+using bodies::Body;
+using bodies::ClothBody;
+using bodies::ProbeReading;
+using bodies::ShellBody;
+
+/// Statistics of one implicit-Euler step of one solve: of one body, or of every body solved jointly.
 struct StepStats {
   int frame = 0;
   long step = 0;
   double sim_time = 0.0;
-  std::string cloth;
+  std::string body;  ///< the body's name, or the names joined by '+' (stats.csv's "cloth" column)
   std::string solver;
   solvers::SolveReport report;
   double wall_ms = 0.0;  ///< the whole step: set-up, solve, projection, friction
@@ -23,6 +29,7 @@ struct StepStats {
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
   std::vector<ProbeReading> probes;
+  std::size_t first_probe = 0;  ///< the number of probes.front() in the scene's probe order
 };
 
 /// An obstacle's motion that a program driving the simulation can steer between steps (Simulator::set_obstacle_pose,
@@ -46,8 +53,10 @@ class SteerableMotion final : public geometry::RigidMotion {
   std::vector<geometry::Keyframe> m_keys;  ///< empty: not steered
 };
 
-/// The time loop: every step minimizes each cloth's incremental potential with the scene's solver
-/// (ARCHITECTURE.md data flow), then projects contacts and filters friction.
+/// The time loop over the scene's bodies (cloths, then shells, in scene order): every step minimizes the step's
+/// objective over all bodies (or, with "solve_bodies": "separately", each body's own) with the scene's solver
+/// (docs/ARCHITECTURE.md, data flow), then lets every body end its step (contact projection, velocity, friction).
+/// The bodies solved together are a group (bodies::Assembly) with one solver.
 class Simulator {
  public:
   explicit Simulator(Scene scene);
@@ -56,11 +65,15 @@ class Simulator {
   Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::TriMesh>>& meshes);
 
   const Scene& scene() const { return m_scene; }
-  std::vector<std::unique_ptr<ClothBody>>& cloths() { return m_cloths; }
-  const std::vector<std::unique_ptr<ClothBody>>& cloths() const { return m_cloths; }
+  /// Every body: the scene's cloths, then its shells. Checkpoints, outputs and solver states are in this order.
+  const std::vector<std::unique_ptr<Body>>& bodies() const { return m_bodies; }
+  Body& body(size_t b) { return *m_bodies[b]; }
+  /// The body named `name`; InputError listing the names when there is none.
+  size_t body_index(const std::string& name) const;
+  /// The bodies of each kind (views of bodies(), in scene order).
+  std::vector<ClothBody*> cloths() const;
+  std::vector<ShellBody*> shells() const;
   const std::vector<geometry::Obstacle>& obstacles() const { return m_obstacles; }
-  std::vector<std::unique_ptr<ShellBody>>& shells() { return m_shells; }
-  const std::vector<std::unique_ptr<ShellBody>>& shells() const { return m_shells; }
 
   /// Completed frames and steps; time is derived from the step count so that a resumed run lands on the same
   /// floating-point times as an uninterrupted one.
@@ -68,14 +81,17 @@ class Simulator {
   long step_count() const { return m_step; }
   double time() const { return static_cast<double>(m_step) * m_scene.step_size(); }
 
-  /// The problem of the next step of cloth c (the objective prepared for t → t + h, with hierarchy, contact
-  /// projection and coarse objectives as its solver needs) and its start point x0, without solving it. Used by
-  /// step() and by benchmarks that freeze one step's objective. Valid until the next prepare or step.
-  solvers::Problem prepare_problem(size_t c, VecX& x0);
-  solvers::NonlinearSolver& solver(size_t c) { return *m_solvers[c]; }
-  /// The same for shell s: its step objective and start point, and the load factor of the step.
-  solvers::Problem prepare_shell_problem(size_t s, VecX& x0, double* load_factor = nullptr);
-  solvers::NonlinearSolver& shell_solver(size_t s) { return *m_shell_solvers[s]; }
+  /// The groups of bodies solved together: one with every body, or one per body.
+  size_t num_groups() const { return m_groups.size(); }
+  const bodies::Assembly& group(size_t g) const { return *m_groups[g]; }
+  /// The group of body b.
+  size_t group_of(size_t b) const { return m_group_of[b]; }
+  /// The problem of the next step of group g (the objective prepared for t → t + h, with the hierarchy and the
+  /// feasibility projection its solver needs) and its start point x0, without solving it. Used by step() and by
+  /// benchmarks that freeze one step's objective. Valid until the next prepare or step. `load_factor` receives
+  /// the step's load factor (static shells; 1 otherwise). A scene of one body has one group: g = 0.
+  solvers::Problem prepare_problem(size_t g, VecX& x0, double* load_factor = nullptr);
+  solvers::NonlinearSolver& solver(size_t g) { return *m_solvers[g]; }
 
   /// Runs the substeps of the next frame.
   std::vector<StepStats> advance_frame();
@@ -91,11 +107,12 @@ class Simulator {
   /// Obstacle o moves to `pose` over the next frame (SteerableMotion) and stays there. Not kept in checkpoints.
   void set_obstacle_pose(size_t o, const geometry::Pose& pose);
 
-  /// State for checkpoints: frame, step, and x and v of every cloth, then of every shell. Throws InputError when
-  /// the counts or sizes do not fit the scene.
+  /// State for checkpoints: frame, step, and x and v of every body. Throws InputError when the counts or sizes do
+  /// not fit the scene.
   void set_state(int frame, long step, const std::vector<VecX>& x, const std::vector<VecX>& v);
-  /// What the solver of `body` (every cloth, then every shell) carries from one step into the next, as opaque
-  /// bytes for checkpoints (sim::Checkpoint::Body::solver_state); empty when it carries nothing.
+  /// What the solver of `body` carries from one step into the next, as opaque bytes for checkpoints
+  /// (sim::Checkpoint::Body::solver_state); empty when it carries nothing. A group's solver state is kept with its
+  /// first body; the others' are empty.
   std::string solver_state(size_t body) const;
   /// Gives a solver_state() back to the solver of `body` after set_state(), so that the next step goes on as the
   /// uninterrupted run's. Throws InputError when the state does not fit that solver.
@@ -103,16 +120,17 @@ class Simulator {
 
  private:
   Scene m_scene;
-  /// InputError when cloth c starts deeper inside an obstacle than the contact thickness.
-  void check_start_outside_obstacles(size_t c) const;
+  /// InputError when cloth c (scene.cloths[c]) starts deeper inside an obstacle than the contact thickness.
+  void check_start_outside_obstacles(size_t c, const ClothBody& body) const;
   std::vector<geometry::Obstacle> m_obstacles;
   /// The motion of each obstacle, shared with every copy of it (cloth bodies, contact terms) so that a steer
   /// reaches them all.
   std::vector<std::shared_ptr<SteerableMotion>> m_steering;
-  std::vector<std::unique_ptr<ClothBody>> m_cloths;
+  std::vector<std::unique_ptr<Body>> m_bodies;
+  std::vector<std::unique_ptr<bodies::Assembly>> m_groups;
+  std::vector<size_t> m_group_of;
+  /// One solver per group: solvers keep per-pattern state (the CHOLMOD analysis, the multigrid hierarchy).
   std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_solvers;
-  std::vector<std::unique_ptr<ShellBody>> m_shells;
-  std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_shell_solvers;
   int m_frame = 0;
   long m_step = 0;
   bool m_record_trace = false;

@@ -89,7 +89,7 @@ class NonlinearSolver {
   /// them instead of starting afresh (ignored where they do not fit the problem).
   virtual void resume_level_states(std::vector<VecX> /*states*/) {}
   /// A solver that keeps the solution on a device ends the time step there too, after minimize(): contact
-  /// projection of x, the velocity v = (x − x_old)/h and the friction filter (what sim::ClothBody::finish_step does
+  /// projection of x, the velocity v = (x − x_old)/h and the friction filter (what bodies::ClothBody::finish_step does
   /// on the CPU). Returns false where the caller must do it.
   virtual bool finish_step(const VecX& /*x_old*/, double /*h*/, VecX& /*x*/, VecX& /*v*/) { return false; }
   /// What a minimize() leaves behind that steers the next one (FMG: the Chebyshev spectral radii estimated on the

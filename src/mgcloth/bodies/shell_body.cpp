@@ -1,14 +1,14 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/log.hpp>
-#include <mgcloth/sim/scene.hpp>
-#include <mgcloth/sim/shell_body.hpp>
+#include <mgcloth/bodies/cloth_spec.hpp>
+#include <mgcloth/bodies/shell_body.hpp>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <map>
 #include <cmath>
 
-namespace mgcloth::sim {
+namespace mgcloth::bodies {
 
 namespace {
 
@@ -401,7 +401,9 @@ VecX ShellBody::prepare_step(double t_next, double h, double load_factor) {
   return m_x;
 }
 
-void ShellBody::finish_step(const VecX& x_new, double h) {
+std::string ShellBody::size_text() const { return fmt::format("{} control points", m_x.size() / 3); }
+
+void ShellBody::finish_step(VecX& x_new, double h) {
   if (is_static() || !(h > 0.0)) {
     m_v.setZero();
   } else {
@@ -442,4 +444,4 @@ hierarchy::Hierarchy ShellBody::solver_hierarchy(bool rediscretized) {
   return h;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::bodies

@@ -4,9 +4,9 @@
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/membrane.hpp>
 #include <mgcloth/physics/seam.hpp>
-#include <mgcloth/sim/cloth_body.hpp>
+#include <mgcloth/bodies/cloth_body.hpp>
 
-namespace mgcloth::sim {
+namespace mgcloth::bodies {
 
 VecX lumped_vertex_area(const mesh::TriMesh& mesh) {
   VecX a = VecX::Zero(mesh.num_vertices());
@@ -56,18 +56,17 @@ std::vector<Index> select_pins(const PinSpec& p, const mesh::TriMesh& m, const s
 
 }  // namespace
 
-ClothBody::ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles,
-                     const physics::ContactParams& contact, const Vec3& gravity, bool projective,
-                     const mesh::TriMesh* mesh)
+ClothBody::ClothBody(const ClothSpec& spec, const ClothEnvironment& env, const mesh::TriMesh* mesh)
     : m_name(spec.name),
       m_mesh(load_mesh(spec, mesh)),
       m_material_scale(spec.mesh.material_scale),
       m_material(spec.material),
-      m_gravity(gravity),
+      m_gravity(env.gravity),
       m_seam_stiffness(spec.seam_stiffness),
-      m_obstacles(obstacles),
-      m_contact_params(contact),
-      m_projective(projective),
+      m_obstacles(env.obstacles),
+      m_contact_params(env.contact),
+      m_hierarchy_params(env.hierarchy),
+      m_projective(env.energy_form == physics::EnergyForm::Projective),
       m_pin_specs(spec.pins) {
   m_topology = mesh::build_topology(m_mesh, spec.mesh.file.empty() ? spec.name : spec.mesh.file);
   // Initial world state: the mesh's own positions, placed by the cloth's transform.
@@ -132,9 +131,11 @@ ClothBody::LevelObjective ClothBody::build_objective(const mesh::TriMesh& mesh, 
   return lv;
 }
 
-const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::HierarchyParams& params) {
+std::string ClothBody::size_text() const { return fmt::format("{} vertices", m_mesh.num_vertices()); }
+
+const hierarchy::TriangleHierarchy& ClothBody::hierarchy() {
   if (!m_hierarchy) {
-    hierarchy::HierarchyParams p = params;
+    hierarchy::HierarchyParams p = m_hierarchy_params;
     p.keep.insert(p.keep.end(), m_pin_vertices.begin(), m_pin_vertices.end());  // pins are exact on every level
     m_hierarchy = building(
         [&] { return fmt::format("the multigrid hierarchy of cloth \"{}\" ({} vertices)", m_name, m_mesh.num_vertices()); },
@@ -143,8 +144,8 @@ const hierarchy::TriangleHierarchy& ClothBody::hierarchy(const hierarchy::Hierar
   return *m_hierarchy;
 }
 
-std::vector<const physics::Objective*> ClothBody::level_objectives(const hierarchy::HierarchyParams& params) {
-  const hierarchy::TriangleHierarchy& h = hierarchy(params);
+std::vector<const physics::Objective*> ClothBody::level_objectives() {
+  const hierarchy::TriangleHierarchy& h = hierarchy();
   if (!m_coarse_built) {
     const double fine_area = m_area.sum();
     for (Index l = 1; l < h.num_levels(); ++l) {
@@ -172,11 +173,11 @@ std::vector<const physics::Objective*> ClothBody::level_objectives(const hierarc
   return out;
 }
 
-hierarchy::Hierarchy ClothBody::solver_hierarchy(const hierarchy::HierarchyParams& params, bool rediscretized) {
-  hierarchy::Hierarchy h = hierarchy(params).levels_for_solvers();
+hierarchy::Hierarchy ClothBody::solver_hierarchy(bool rediscretized) {
+  hierarchy::Hierarchy h = hierarchy().levels_for_solvers();
   h.levels[0].objective = &objective();
   if (!rediscretized) return h;
-  const auto coarse = level_objectives(params);
+  const auto coarse = level_objectives();
   m_lsq.resize(h.num_levels());
   for (size_t l = 0; l < h.num_levels(); ++l) {
     if (l > 0) h.levels[l].objective = coarse[l - 1];
@@ -263,6 +264,12 @@ void ClothBody::finish_step(VecX& x_new, double h) {
   m_x = x_new;
 }
 
+std::function<Index(VecX&)> ClothBody::feasibility_projection() const {
+  const physics::ObstaclePenalty* c = contact();
+  if (!c) return {};
+  return [c](VecX& y) { return physics::project_out_of_obstacles(y, c->obstacle_data()); };
+}
+
 void ClothBody::accept_step(const VecX& x_new, const VecX& v_new) {
   if (x_new.size() != m_x.size() || v_new.size() != m_x.size())
     throw_error("cloth \"{}\": the step's end has {} and {} entries for {} dofs", name(), x_new.size(), v_new.size(),
@@ -271,4 +278,4 @@ void ClothBody::accept_step(const VecX& x_new, const VecX& v_new) {
   m_v = v_new;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::bodies

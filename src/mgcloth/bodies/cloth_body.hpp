@@ -8,23 +8,37 @@
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/physics/projective.hpp>
-#include <mgcloth/sim/scene.hpp>
+#include <mgcloth/bodies/body.hpp>
+#include <mgcloth/bodies/cloth_spec.hpp>
+#include <mgcloth/geometry/obstacle.hpp>
+#include <mgcloth/physics/energy_form.hpp>
 
-namespace mgcloth::sim {
+namespace mgcloth::bodies {
+
+/// What a cloth's step depends on besides its own spec: the scene's obstacles, contact, gravity, energy form and
+/// hierarchy settings.
+struct ClothEnvironment {
+  std::vector<geometry::Obstacle> obstacles;
+  physics::ContactParams contact;
+  Vec3 gravity = Vec3(0.0, 0.0, -9.81);
+  /// Projective: the Projective Dynamics form of the energy (PD strain membrane, quadratic bending unless the
+  /// material has none, PD contact) instead of the elastic membrane, the material's bending model and the cubic
+  /// contact penalty (physics/projective.hpp).
+  physics::EnergyForm energy_form = physics::EnergyForm::Elastic;
+  hierarchy::HierarchyParams hierarchy;  ///< the pinned vertices are added to its `keep`
+};
 
 /// One cloth: its discretization, its per-step objective (and, for solvers that rediscretize, the same objective on
 /// each coarse level of its hierarchy), and its state.
-class ClothBody {
+class ClothBody final : public Body {
  public:
-  /// `projective`: build the Projective Dynamics form of the energy (NonlinearSolver::projective()): PD strain
-  /// membrane, quadratic bending (unless the material has none) and PD contact instead of the elastic membrane,
-  /// the material's bending model and the cubic contact penalty (physics/projective.hpp).
   /// `mesh`: the cloth's mesh given in memory by a program (the Python module's arrays), used instead of the spec's
   /// file or generator; it is validated (mesh::validate) like a mesh read from a file.
-  ClothBody(const ClothSpec& spec, const std::vector<geometry::Obstacle>& obstacles, const physics::ContactParams& contact,
-            const Vec3& gravity, bool projective = false, const mesh::TriMesh* mesh = nullptr);
+  ClothBody(const ClothSpec& spec, const ClothEnvironment& environment, const mesh::TriMesh* mesh = nullptr);
 
-  const std::string& name() const { return m_name; }
+  const std::string& name() const override { return m_name; }
+  std::string kind() const override { return "cloth"; }
+  std::string size_text() const override;
   const mesh::TriMesh& mesh() const { return m_mesh; }
   const mesh::Topology& topology() const { return m_topology; }
   double material_scale() const { return m_material_scale; }
@@ -32,23 +46,26 @@ class ClothBody {
   const std::vector<Index>& pinned_vertices() const { return m_pin_vertices; }
   bool projective() const { return m_projective; }
 
-  VecX& x() { return m_x; }
-  VecX& v() { return m_v; }
-  const VecX& x() const { return m_x; }
-  const VecX& v() const { return m_v; }
+  VecX& x() override { return m_x; }
+  VecX& v() override { return m_v; }
+  const VecX& x() const override { return m_x; }
+  const VecX& v() const override { return m_v; }
 
   /// Sets the objective of the step from t to t + h (and the coarse levels' objectives, once built): inertial
   /// prediction, pin targets, obstacles at t + h and, in the PD form, the contact active sets.
   /// Returns the predicted positions y = x + h v (the solve's start, made feasible against obstacles).
   VecX prepare_step(double t, double h);
-  physics::Objective& objective() { return *m_levels[0].objective; }
+  VecX prepare_step(const StepTime& step) override { return prepare_step(step.t, step.h); }
+  physics::Objective& objective() override { return *m_levels[0].objective; }
   /// The obstacle penalty (cubic, or PD in the projective form); null without obstacles.
   const physics::ObstaclePenalty* contact() const { return m_levels[0].contact; }
   /// Contact projection and friction after the solve (the obstacles at the step's end, placed by prepare_step):
   /// x_new is projected, v = (x_new − x)/h then filtered.
-  void finish_step(VecX& x_new, double h);
+  void finish_step(VecX& x_new, double h) override;
   /// The step's end computed elsewhere (a device solver's NonlinearSolver::finish_step): the new state as it is.
-  void accept_step(const VecX& x_new, const VecX& v_new);
+  void accept_step(const VecX& x_new, const VecX& v_new) override;
+  /// Projection out of the obstacles at the step's end (placed by prepare_step); empty without obstacles.
+  std::function<Index(VecX&)> feasibility_projection() const override;
   /// Where the pins pull at time t: the scene's pin motion, or the targets a program set (set_pin_targets).
   std::vector<Vec3> pin_targets(double t) const;
   /// Scripted pin targets (pinned_vertices() order), set between steps by a program driving the simulation: from
@@ -56,17 +73,22 @@ class ClothBody {
   /// scene's pin motion no longer applies. InputError when the count is wrong or a target is not finite.
   void set_pin_targets(const std::vector<Vec3>& targets, double t0, double t1);
   /// The cloth's mesh hierarchy (Wang 2018 App. B), built on first use with the pinned vertices kept.
-  const hierarchy::TriangleHierarchy& hierarchy(const hierarchy::HierarchyParams& params);
-  /// The step's objective rediscretized on levels 1..H of hierarchy(params) (entry l is level l + 1), for
+  const hierarchy::TriangleHierarchy& hierarchy();
+  /// The step's objective rediscretized on levels 1..H of hierarchy() (entry l is level l + 1), for
   /// Problem::level_objectives: the fine objective's terms built on the coarse mesh (masses and contact weights from
   /// the coarse lumped material areas, scaled so that the total mass is the fine one; membrane and bending from the
   /// coarse triangles and hinges; seams from the coarse stitch groups; the pins on their kept vertices). Built on
   /// first use; prepare_step keeps them on the current step, each level's prediction the fine one injected.
-  std::vector<const physics::Objective*> level_objectives(const hierarchy::HierarchyParams& params);
-  /// hierarchy(params) as a solver sees it (solvers::Problem::hierarchy): prolongations and injections; with
-  /// `rediscretized` also the step's objective on every level (level_objectives) and the least-squares projections
-  /// of eq. 5.18 (factorized on first use and kept: the hierarchy does not change between steps).
-  hierarchy::Hierarchy solver_hierarchy(const hierarchy::HierarchyParams& params, bool rediscretized);
+  std::vector<const physics::Objective*> level_objectives();
+  /// hierarchy() as a solver sees it: prolongations and injections; with `rediscretized` also the step's objective
+  /// on every level (level_objectives) and the least-squares projections of eq. 5.18 (factorized on first use and
+  /// kept: the hierarchy does not change between steps).
+  hierarchy::Hierarchy solver_hierarchy(bool rediscretized) override;
+
+  const mesh::TriMesh& surface_mesh() const override { return m_mesh; }
+  /// The mesh's texture coordinates (material coordinates over material_scale()).
+  Mat2X surface_uv() const override { return m_mesh.u / m_material_scale; }
+  Mat3X surface_positions() const override { return as_columns(m_x); }
 
  private:
   /// One level's objective and the terms that prepare_step updates.
@@ -96,6 +118,7 @@ class ClothBody {
   double m_seam_stiffness = 0.0;
   std::vector<geometry::Obstacle> m_obstacles;
   physics::ContactParams m_contact_params;
+  hierarchy::HierarchyParams m_hierarchy_params;
   bool m_projective = false;
   /// Level 0 is the cloth's own objective; levels 1..H are added by level_objectives().
   std::vector<LevelObjective> m_levels;
@@ -119,4 +142,4 @@ class ClothBody {
 /// Lumped (one third of each adjacent triangle) vertex areas in material space.
 VecX lumped_vertex_area(const mesh::TriMesh& mesh);
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::bodies

@@ -5,33 +5,30 @@
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/physics/shell.hpp>
 #include <mgcloth/physics/shell_samples.hpp>
-#include <mgcloth/sim/shell_scene.hpp>
+#include <mgcloth/bodies/body.hpp>
+#include <mgcloth/bodies/shell_spec.hpp>
 
 #include <map>
 #include <memory>
 
-namespace mgcloth::sim {
-
-/// One probe reading: the limit-surface position of a material point and its displacement from the rest state.
-struct ProbeReading {
-  Vec2 at;
-  Vec3 x, u;
-};
+namespace mgcloth::bodies {
 
 /// One subdivision Kirchhoff-Love shell (Kopaničáková 2019): its control-mesh hierarchy, the objective of one
 /// step on the finest level (shell energy, penalty boundary conditions, loads), and its state (control points and
 /// their velocities). The unknowns are the finest control points, ghost points included. For multilevel solvers
 /// the same step is also rediscretized on every coarser control mesh (§6: boundary conditions and loads are
 /// distributed to every level), with the transfer operators between levels.
-class ShellBody {
+class ShellBody final : public Body {
  public:
   /// `source` names the scene file in messages.
   ShellBody(const ShellSpec& spec, const Vec3& gravity, const std::string& source);
   ~ShellBody();
 
-  const std::string& name() const { return m_spec.name; }
+  const std::string& name() const override { return m_spec.name; }
+  std::string kind() const override { return "shell"; }
+  std::string size_text() const override;
   const ShellSpec& spec() const { return m_spec; }
-  bool is_static() const { return m_spec.analysis == "static"; }
+  bool is_static() const override { return m_spec.analysis == "static"; }
   const hierarchy::SubdivisionHierarchy& hierarchy() const { return m_hierarchy; }
   const mesh::LimitSurface& surface() const { return *finest().surface; }
   /// β of the penalty on the finest level (h^-σ unless given).
@@ -39,19 +36,20 @@ class ShellBody {
   /// Mesh size h: the mean material length of the real faces' edges on the finest level.
   double mesh_size() const { return finest().h; }
 
-  VecX& x() { return m_x; }
-  VecX& v() { return m_v; }
-  const VecX& x() const { return m_x; }
-  const VecX& v() const { return m_v; }
+  VecX& x() override { return m_x; }
+  VecX& v() override { return m_v; }
+  const VecX& x() const override { return m_x; }
+  const VecX& v() const override { return m_v; }
 
   /// Sets the objective of the step ending at t_next (dynamic: implicit Euler with step h, start y = x + h v;
   /// static: equilibrium at load factor `load_factor`, start x), on the finest level and on every coarse level
   /// built so far (their inertia targets are y projected by reverse subdivision). Returns the solve's start point.
   VecX prepare_step(double t_next, double h, double load_factor);
-  physics::Objective& objective() { return *finest().objective; }
+  VecX prepare_step(const StepTime& step) override { return prepare_step(step.t + step.h, step.h, step.load_factor); }
+  physics::Objective& objective() override { return *finest().objective; }
   const physics::ShellTerm& shell_term() const { return *finest().shell; }
   /// Accepts the solve's result: v = (x_new − x) / h (dynamic; zero in static runs), x = x_new.
-  void finish_step(const VecX& x_new, double h);
+  void finish_step(VecX& x_new, double h) override;
 
   /// Levels of the hierarchy (level 0 the coarsest, num_levels() − 1 the finest).
   int num_levels() const { return m_hierarchy.num_levels(); }
@@ -72,12 +70,16 @@ class ShellBody {
   /// The hierarchy as a solver sees it (solvers::Problem::hierarchy), finest first: problem level k is hierarchy
   /// level num_levels() − 1 − k. Prolongations (S) always; with `rediscretized` also the step's objective on every
   /// level, the projections of iterates (reverse subdivision where it exists, and least squares) and the patches.
-  hierarchy::Hierarchy solver_hierarchy(bool rediscretized);
+  hierarchy::Hierarchy solver_hierarchy(bool rediscretized) override;
 
   /// The display mesh of the limit surface (material coordinates as vt) and its positions for the current state.
   const mesh::TriMesh& display_mesh() const { return m_display.mesh; }
   Mat3X display_positions() const { return m_display.positions(as_columns(m_x)); }
-  std::vector<ProbeReading> probes() const;
+  const mesh::TriMesh& surface_mesh() const override { return display_mesh(); }
+  Mat2X surface_uv() const override { return display_mesh().u; }
+  Mat3X surface_positions() const override { return display_positions(); }
+  std::size_t num_probes() const override { return m_spec.probes.size(); }
+  std::vector<ProbeReading> probes() const override;
 
  private:
   /// A sample's rest position and the scaling that follows the load factor or ramp.
@@ -141,4 +143,4 @@ class ShellBody {
   std::vector<Vec3> m_probe_rest;
 };
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::bodies

@@ -1,0 +1,217 @@
+#include <mgcloth/bodies/assembly.hpp>
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/physics/sub_objective.hpp>
+
+namespace mgcloth::bodies {
+
+/// The joint hierarchy and what it points to.
+struct Assembly::Union {
+  std::vector<hierarchy::Hierarchy> parts;  ///< each body's own
+  hierarchy::Hierarchy joint;
+  std::vector<linalg::StencilTable> prolongations;
+  std::vector<std::unique_ptr<physics::Objective>> objectives;  ///< levels 1.. (rediscretized)
+  std::vector<std::vector<std::vector<Index>>> patches;
+};
+
+namespace {
+
+/// Body b's level on joint level l: its own, or its coarsest where its hierarchy is shorter.
+size_t level_of(const hierarchy::Hierarchy& h, size_t l) { return std::min(l, h.num_levels() - 1); }
+
+/// The block-diagonal union of the parts' prolongations from joint level l + 1 to l (identity for a body that
+/// already is at its coarsest).
+linalg::StencilTable union_prolongation(const std::vector<hierarchy::Hierarchy>& parts, size_t l) {
+  linalg::StencilTable P;
+  P.offsets.assign(1, 0);
+  for (const auto& h : parts) {
+    const Index col0 = P.num_cols;
+    const auto& fine = h.levels[level_of(h, l)];
+    const linalg::StencilTable* own = l + 1 < h.num_levels() ? fine.prolongation : nullptr;
+    if (own) {
+      for (Index i = 0; i < own->num_rows; ++i) {
+        for (Index k = own->offsets[i]; k < own->offsets[i + 1]; ++k) {
+          P.indices.push_back(col0 + own->indices[k]);
+          P.weights.push_back(own->weights[k]);
+        }
+        P.offsets.push_back(static_cast<Index>(P.indices.size()));
+      }
+      P.num_rows += own->num_rows;
+      P.num_cols += own->num_cols;
+    } else {
+      for (Index i = 0; i < fine.num_points; ++i) {
+        P.indices.push_back(col0 + i);
+        P.weights.push_back(1.0);
+        P.offsets.push_back(static_cast<Index>(P.indices.size()));
+      }
+      P.num_rows += fine.num_points;
+      P.num_cols += fine.num_points;
+    }
+  }
+  P.build_transpose();
+  return P;
+}
+
+}  // namespace
+
+Assembly::Assembly(std::vector<Body*> bodies) : m_bodies(std::move(bodies)) {
+  if (m_bodies.empty()) throw_error("Assembly: no bodies");
+  m_offsets.push_back(0);
+  for (const Body* b : m_bodies) m_offsets.push_back(m_offsets.back() + b->num_points());
+}
+
+Assembly::~Assembly() = default;
+
+VecX Assembly::x() const {
+  VecX out(3 * num_points());
+  for (size_t b = 0; b < m_bodies.size(); ++b) out.segment(3 * m_offsets[b], m_bodies[b]->x().size()) = m_bodies[b]->x();
+  return out;
+}
+
+VecX Assembly::v() const {
+  VecX out(3 * num_points());
+  for (size_t b = 0; b < m_bodies.size(); ++b) out.segment(3 * m_offsets[b], m_bodies[b]->v().size()) = m_bodies[b]->v();
+  return out;
+}
+
+VecX Assembly::prepare_step(const StepTime& step) {
+  if (m_bodies.size() == 1) return m_bodies[0]->prepare_step(step);
+  VecX out(3 * num_points());
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    const VecX y = m_bodies[b]->prepare_step(step);
+    out.segment(3 * m_offsets[b], y.size()) = y;
+  }
+  return out;
+}
+
+std::unique_ptr<physics::Objective> Assembly::joint_objective(const std::vector<const physics::Objective*>& parts) const {
+  Index n = 0;
+  for (const auto* p : parts) n += p->num_vertices();
+  auto joint = std::make_unique<physics::Objective>(n);
+  Index offset = 0;
+  for (size_t b = 0; b < parts.size(); ++b) {
+    joint->add(std::make_unique<physics::SubObjectiveTerm>(m_bodies[b]->name(), *parts[b], offset));
+    offset += parts[b]->num_vertices();
+  }
+  joint->finalize();
+  return joint;
+}
+
+physics::Objective& Assembly::objective() {
+  if (m_bodies.size() == 1) return m_bodies[0]->objective();
+  if (!m_objective) {
+    std::vector<const physics::Objective*> parts;
+    for (Body* b : m_bodies) parts.push_back(&b->objective());
+    m_objective = joint_objective(parts);
+  }
+  return *m_objective;
+}
+
+hierarchy::Hierarchy Assembly::solver_hierarchy(bool rediscretized) {
+  if (m_bodies.size() == 1) return m_bodies[0]->solver_hierarchy(rediscretized);
+  auto& u = rediscretized ? m_rediscretized : m_galerkin;
+  if (!u) {
+    u = std::make_unique<Union>();
+    size_t L = 1;
+    for (Body* b : m_bodies) {
+      u->parts.push_back(b->solver_hierarchy(rediscretized));
+      L = std::max(L, u->parts.back().num_levels());
+    }
+    u->prolongations.reserve(L);
+    for (size_t l = 0; l + 1 < L; ++l) u->prolongations.push_back(union_prolongation(u->parts, l));
+    u->joint.levels.resize(L);
+    for (size_t l = 0; l < L; ++l) {
+      auto& level = u->joint.levels[l];
+      for (const auto& h : u->parts) level.num_points += h.levels[level_of(h, l)].num_points;
+      if (l + 1 < L) level.prolongation = &u->prolongations[l];
+    }
+    if (rediscretized) {
+      u->patches.resize(L);
+      for (size_t l = 1; l < L; ++l) {
+        std::vector<const physics::Objective*> parts;
+        for (const auto& h : u->parts) parts.push_back(h.levels[level_of(h, l)].objective);
+        u->objectives.push_back(joint_objective(parts));
+        u->joint.levels[l].objective = u->objectives.back().get();
+      }
+      for (size_t l = 0; l < L; ++l) {
+        Index offset = 0;
+        bool all = true;
+        for (const auto& h : u->parts) {
+          const auto* own = h.levels[level_of(h, l)].patches;
+          all = all && own;
+          if (own)
+            for (const auto& patch : *own) {
+              u->patches[l].push_back(patch);
+              for (Index& i : u->patches[l].back()) i += offset;
+            }
+          offset += h.levels[level_of(h, l)].num_points;
+        }
+        if (all) u->joint.levels[l].patches = &u->patches[l];
+      }
+      // Projections of iterates: each body's on its part, the identity for a body already at its coarsest.
+      for (size_t l = 0; l + 1 < L; ++l)
+        for (bool lsq : {false, true}) {
+          bool all = true;
+          for (const auto& h : u->parts)
+            if (l + 1 < h.num_levels()) all = all && static_cast<bool>(lsq ? h.levels[l].project_lsq : h.levels[l].project);
+          if (!all) continue;
+          const Union* un = u.get();
+          (lsq ? u->joint.levels[l].project_lsq : u->joint.levels[l].project) = [un, l, lsq](const VecX& fine, VecX& coarse) {
+            coarse.resize(3 * un->joint.levels[l + 1].num_points);
+            Index from = 0, to = 0;
+            VecX part;
+            for (const auto& h : un->parts) {
+              const Index nf = h.levels[level_of(h, l)].num_points, nc = h.levels[level_of(h, l + 1)].num_points;
+              if (l + 1 < h.num_levels())
+                (lsq ? h.levels[l].project_lsq : h.levels[l].project)(fine.segment(3 * from, 3 * nf), part);
+              else
+                part = fine.segment(3 * from, 3 * nf);
+              coarse.segment(3 * to, 3 * nc) = part;
+              from += nf;
+              to += nc;
+            }
+          };
+        }
+    }
+  }
+  hierarchy::Hierarchy h = u->joint;
+  h.levels[0].objective = &objective();
+  return h;
+}
+
+std::function<Index(VecX&)> Assembly::feasibility_projection() const {
+  if (m_bodies.size() == 1) return m_bodies[0]->feasibility_projection();
+  std::vector<std::pair<Index, std::function<Index(VecX&)>>> parts;
+  for (size_t b = 0; b < m_bodies.size(); ++b)
+    if (auto p = m_bodies[b]->feasibility_projection()) parts.emplace_back(b, std::move(p));
+  if (parts.empty()) return {};
+  return [this, parts](VecX& x) {
+    Index moved = 0;
+    for (const auto& [b, project] : parts) {
+      VecX part = x.segment(3 * m_offsets[b], 3 * (m_offsets[b + 1] - m_offsets[b]));
+      if (const Index k = project(part); k > 0) {
+        moved += k;
+        x.segment(3 * m_offsets[b], part.size()) = part;
+      }
+    }
+    return moved;
+  };
+}
+
+void Assembly::finish_step(VecX& x, double h) {
+  if (m_bodies.size() == 1) return m_bodies[0]->finish_step(x, h);
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    VecX part = x.segment(3 * m_offsets[b], 3 * (m_offsets[b + 1] - m_offsets[b]));
+    m_bodies[b]->finish_step(part, h);
+    x.segment(3 * m_offsets[b], part.size()) = part;
+  }
+}
+
+void Assembly::accept_step(const VecX& x, const VecX& v) {
+  if (m_bodies.size() == 1) return m_bodies[0]->accept_step(x, v);
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    const Index from = 3 * m_offsets[b], n = 3 * (m_offsets[b + 1] - m_offsets[b]);
+    m_bodies[b]->accept_step(x.segment(from, n), v.segment(from, n));
+  }
+}
+
+}  // namespace mgcloth::bodies
