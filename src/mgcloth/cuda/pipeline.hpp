@@ -61,6 +61,7 @@ class Pipeline final : public DeviceFmg {
     m_layout = build_layout(objective, prolongations);
     m_objective = &objective;
     m_prolongations = prolongations;
+    m_pattern_version = objective.pattern_version();
     const ObjectiveLayout& O = m_layout.objective;
     m_n = O.n;
     m_levels.clear();
@@ -725,6 +726,7 @@ class Pipeline final : public DeviceFmg {
   Layout m_layout;
   const physics::Objective* m_objective = nullptr;
   std::vector<const linalg::StencilTable*> m_prolongations;
+  long m_pattern_version = -1;  ///< the objective's pattern the layout was built for
   Index m_n = 0;
   std::vector<Level> m_levels;
   Buf<double> m_mass, m_tri_dm, m_tri_at, m_hinge_c, m_hinge_k, m_pin_k, m_contact_k, m_y, m_pin_targets;
@@ -756,7 +758,10 @@ Outcome Pipeline<B>::minimize(const physics::Objective& objective,
   struct Phases {
     double setup = 0, assembly = 0, galerkin = 0, linear = 0, line_search = 0, gradient = 0, model = 0;
   } ms;
-  if (m_objective != &objective || m_prolongations != prolongations) {
+  // The device layout (colorings, Galerkin maps, scatter slots) follows the objective's pattern: rebuilt when the
+  // terms' stencils changed it. (Within a solve the device assembles with the stencils of the solve's start.)
+  objective.update_stencils(x_host);
+  if (m_objective != &objective || m_prolongations != prolongations || m_pattern_version != objective.pattern_version()) {
     Timer t;
     build(objective, prolongations);
     ms.setup = t.ms();

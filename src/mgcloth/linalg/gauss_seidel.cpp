@@ -7,11 +7,16 @@
 
 namespace mgcloth::linalg {
 
-MultiColorGaussSeidel::MultiColorGaussSeidel(const BlockMatrix3& pattern) : m_colors(color_rows(pattern)) {}
+MultiColorGaussSeidel::MultiColorGaussSeidel(const BlockMatrix3& pattern)
+    : m_colors(color_rows(pattern)), m_offsets(pattern.row_offsets()), m_cols(pattern.col_indices()) {}
 
 void MultiColorGaussSeidel::set_matrix(const BlockMatrix3& A) {
   m_A = &A;
-  if (m_colors.empty() && A.rows() > 0) m_colors = color_rows(A);
+  if (A.row_offsets() != m_offsets || A.col_indices() != m_cols) {
+    m_colors = A.rows() > 0 ? color_rows(A) : std::vector<std::vector<Index>>{};
+    m_offsets = A.row_offsets();
+    m_cols = A.col_indices();
+  }
   m_inv_diag.resize(A.rows());
   bool singular = false;
   parallel_for(A.rows(), [&](Index r) {

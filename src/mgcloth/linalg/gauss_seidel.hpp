@@ -13,7 +13,8 @@ class MultiColorGaussSeidel {
   MultiColorGaussSeidel() = default;
   explicit MultiColorGaussSeidel(const BlockMatrix3& pattern);
 
-  /// Takes new values (same pattern): inverts the diagonal blocks. Throws SolveError for a singular block.
+  /// Takes new values: inverts the diagonal blocks (and colors the rows again when the pattern is not the one
+  /// colored before). Throws SolveError for a singular block.
   void set_matrix(const BlockMatrix3& A);
   /// `sweeps` symmetric sweeps on x. With a mask, rows whose mask entry is 0 are skipped (adaptive smoothing hook).
   void symmetric_sweeps(const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask = nullptr) const;
@@ -27,6 +28,7 @@ class MultiColorGaussSeidel {
 
   const BlockMatrix3* m_A = nullptr;
   std::vector<std::vector<Index>> m_colors;
+  std::vector<Index> m_offsets, m_cols;  ///< the pattern m_colors belong to
   std::vector<Mat3> m_inv_diag;
 };
 

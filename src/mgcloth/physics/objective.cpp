@@ -8,12 +8,25 @@
 
 namespace mgcloth::physics {
 
-void Objective::finalize() {
+void Objective::build_pattern() const {
   std::vector<std::pair<Index, Index>> pairs;
   for (const auto& t : m_terms) t->collect_pattern(pairs);
   m_pattern = linalg::BlockMatrix3(m_n, std::move(pairs));
-  for (auto& t : m_terms) t->bind(m_pattern);
+  for (const auto& t : m_terms) t->bind(m_pattern);
+  ++m_pattern_version;
+}
+
+void Objective::finalize() {
+  build_pattern();
   m_finalized = true;
+}
+
+bool Objective::update_stencils(const VecX& x) const {
+  require_finalized();
+  bool changed = false;
+  for (const auto& t : m_terms) changed = t->update_stencils(x) || changed;
+  if (changed) build_pattern();
+  return changed;
 }
 
 void Objective::require_finalized() const {
@@ -32,7 +45,7 @@ void Objective::gradient(const VecX& x, VecX& g) const {
 }
 
 void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
-  require_finalized();
+  update_stencils(x);
   if (!H.same_pattern(m_pattern)) H = m_pattern;
   H.set_zero();
   for (const auto& t : m_terms) t->add_hessian(x, H, project_psd);

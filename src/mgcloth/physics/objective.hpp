@@ -6,7 +6,10 @@
 namespace mgcloth::physics {
 
 /// E(x) = Σ terms: the incremental potential of one implicit-Euler step (Wang 2018, eq. 2) when the terms are
-/// inertia, gravity, elasticity, attachments and contact. The Hessian pattern is built once, at finalize().
+/// inertia, gravity, elasticity, attachments and contact. The Hessian pattern is built at finalize() and rebuilt
+/// only when a term's stencils change (Term::update_stencils, asked before every Hessian assembly); its version
+/// tells the users of the pattern (multigrid hierarchies, factorizations, colorings) when to rebuild what they
+/// derived from it.
 class Objective {
  public:
   explicit Objective(Index num_vertices) : m_n(num_vertices) {}
@@ -27,8 +30,14 @@ class Objective {
 
   double value(const VecX& x) const;
   void gradient(const VecX& x, VecX& g) const;
-  /// Assembles into H, which must have this objective's pattern (see hessian_pattern()).
+  /// Assembles into H (given this objective's pattern first if it has another one). Asks the terms to update
+  /// their stencils at x first (update_stencils).
   void hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd = true) const;
+  /// Lets every term update its stencils at x; rebuilds the pattern (and rebinds the terms) when one changed.
+  /// Returns whether the pattern changed. The pattern is a cache of the terms' stencils, hence const.
+  bool update_stencils(const VecX& x) const;
+  /// How many times the pattern was built (finalize() makes it 1); users of the pattern rebuild when it moves.
+  long pattern_version() const { return m_pattern_version; }
   /// An empty matrix with the pattern, to be filled by hessian().
   const linalg::BlockMatrix3& hessian_pattern() const;
   /// Values of each term, for diagnostics and statistics.
@@ -37,9 +46,12 @@ class Objective {
  private:
   void require_finalized() const;
 
+  void build_pattern() const;
+
   Index m_n;
   std::vector<std::unique_ptr<Term>> m_terms;
-  linalg::BlockMatrix3 m_pattern;
+  mutable linalg::BlockMatrix3 m_pattern;
+  mutable long m_pattern_version = 0;
   bool m_finalized = false;
 };
 

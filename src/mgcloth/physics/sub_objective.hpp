@@ -24,6 +24,8 @@ class SubObjectiveTerm final : public Term {
   void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const override;
   void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override;
   void bind(const linalg::BlockMatrix3& pattern) override;
+  /// The sub-objective's stencils at its part of x: when its pattern changes, so does the joint one.
+  bool update_stencils(const VecX& x) override { return m_objective->update_stencils(local(x)); }
 
  private:
   VecX local(const VecX& x) const { return x.segment(3 * m_offset, m_objective->num_dofs()); }

@@ -20,8 +20,14 @@ class Term {
   virtual void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const = 0;
   /// The (row, col) vertex pairs this term couples, for building the Hessian pattern once.
   virtual void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const = 0;
-  /// Called once the global pattern exists, so that scatter maps are computed once, not per assembly.
+  /// Called once the global pattern exists (and again whenever it is rebuilt), so that scatter maps are computed
+  /// once per pattern, not per assembly.
   virtual void bind(const linalg::BlockMatrix3& /*pattern*/) {}
+  /// Terms whose stencils follow the iterate (contact pairs that appear and disappear) update them here; called by
+  /// Objective::hessian before each assembly. Returns true when the stencils changed, after which collect_pattern
+  /// gives the new ones and the objective rebuilds its pattern. The value and gradient must not depend on the
+  /// stencils chosen (a pair outside them contributes nothing there). Most terms' stencils are fixed.
+  virtual bool update_stencils(const VecX& /*x*/) { return false; }
 };
 
 }  // namespace mgcloth::physics

@@ -9,6 +9,14 @@ namespace mgcloth::solvers {
 LinearMultigrid::LinearMultigrid(std::vector<const linalg::StencilTable*> p, const linalg::BlockMatrix3& fine_pattern,
                                  MultigridParams params)
     : m_p(std::move(p)), m_levels(m_p.size() + 1), m_params(params) {
+  build_symbolic(fine_pattern);
+}
+
+void LinearMultigrid::build_symbolic(const linalg::BlockMatrix3& fine_pattern) {
+  m_fine_offsets = fine_pattern.row_offsets();
+  m_fine_cols = fine_pattern.col_indices();
+  ++m_symbolic_builds;
+  m_sizes.clear();
   const linalg::BlockMatrix3* pattern = &fine_pattern;
   m_sizes.push_back(fine_pattern.rows());
   for (size_t l = 0; l < m_p.size(); ++l) {
@@ -27,6 +35,9 @@ LinearMultigrid::LinearMultigrid(std::vector<const linalg::StencilTable*> p, con
 const linalg::BlockMatrix3& LinearMultigrid::matrix(Index l) const { return l == 0 ? *m_fine : m_levels[l].A; }
 
 void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
+  // A fine pattern other than the one the hierarchy was built for (contact stencils appeared or disappeared):
+  // colorings, Galerkin maps and coarse patterns are redone; the coarsest factorization re-analyses by itself.
+  if (A.row_offsets() != m_fine_offsets || A.col_indices() != m_fine_cols) build_symbolic(A);
   m_fine = &A;
   for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
     const auto& Al = matrix(static_cast<Index>(l));

@@ -75,10 +75,15 @@ class LinearMultigrid {
   std::vector<double> smoother_rhos() const;
   void set_smoother_rhos(const std::vector<double>& rhos);
   Index num_levels() const { return static_cast<Index>(m_levels.size()); }
+  /// How many times the pattern-dependent part (colorings, Galerkin maps, coarse patterns) was built: once, plus
+  /// once for every set_matrix() whose pattern differed from the last one.
+  int symbolic_builds() const { return m_symbolic_builds; }
   const linalg::BlockMatrix3& matrix(Index l) const;
 
  private:
   void cycle(Index l, const VecX& b, VecX& x) const;
+  /// The pattern-dependent part, for this fine pattern.
+  void build_symbolic(const linalg::BlockMatrix3& fine_pattern);
 
   struct Level {
     linalg::BlockMatrix3 A;  ///< levels >= 1 (level 0 points at the caller's matrix)
@@ -91,6 +96,8 @@ class LinearMultigrid {
   std::vector<Index> m_sizes;
   mutable double m_rows_active = 0.0, m_rows_total = 0.0;
   const linalg::BlockMatrix3* m_fine = nullptr;
+  std::vector<Index> m_fine_offsets, m_fine_cols;  ///< the fine pattern the symbolic part was built for
+  int m_symbolic_builds = 0;
   linalg::CholmodSolver m_coarse_solver;
   MultigridParams m_params;
 };

@@ -20,6 +20,7 @@ struct Rmtr::Level {
   // Second-order coarse models: this level's model Hessian, its Galerkin product for the level below, and (as the
   // level below) the correction δH = Sᵀ H S − ∇²f(x₀) in the pattern of ∇²f.
   std::unique_ptr<linalg::GalerkinProduct> hessian_rap;
+  long rap_pattern = -1;  ///< the level objective's pattern version hessian_rap was built for
   linalg::BlockMatrix3 model_hessian, galerkin, delta_h;
   std::unique_ptr<LocalTrustRegion> tr;
   VecX last_end;  ///< as the level below: where its last visit of this solve ended (coarse_start "best")
@@ -297,8 +298,10 @@ Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const lina
     if (m_params.coarse_model == "second_order") {
       h->hessian(x, L.model_hessian);
       ++C.hessian_assemblies;
-      if (!L.hessian_rap)
+      if (!L.hessian_rap || L.rap_pattern != L.f->pattern_version()) {
         L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, *L.S);
+        L.rap_pattern = L.f->pattern_version();
+      }
       L.hessian_rap->compute(L.model_hessian, L.galerkin);
       coarse_galerkin = &L.galerkin;
     }
