@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct ConvergenceArgs {
-  std::string scene, solvers, out, state_cache;
+  std::string scene, solvers, out, state_cache, body;
   int step = 0;
   double budget = 10.0;
   double reference_seconds = 600.0;
@@ -248,6 +248,7 @@ int run_convergence_command() {
   opt.reference_max_seconds = g_conv.reference_seconds;
   opt.threads = g_conv.threads;
   opt.state_cache = g_conv.state_cache;
+  opt.body = g_conv.body;
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (specs[i].label == specs[j].label) throw_input_error("--solvers: \"{}\" is listed twice", specs[i].label);
@@ -518,6 +519,7 @@ void add_bench_command(CLI::App& app) {
                    "Comma-separated solvers, each NAME or NAME@key=value@... (e.g. newton,newton@linear_solver=pcg-mg)")
       ->required();
   conv->add_option("--out,-o", g_conv.out, "Output folder (created if missing)")->required();
+  conv->add_option("--body", g_conv.body, "The cloth or shell whose step is benchmarked, by name (default: the first)");
   conv->add_option("--budget", g_conv.budget, "Wall-time budget per solver, seconds")->default_val(10.0);
   conv->add_option("--max-iters", g_conv.max_iters, "Iteration cap per solver")->default_val(10000);
   conv->add_option("--reference-seconds", g_conv.reference_seconds,

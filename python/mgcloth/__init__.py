@@ -283,9 +283,10 @@ class Simulation(_mgcloth.Simulator):
 
 
 def convergence(scene, solvers, *, step=1, budget=10.0, max_iters=10000, threads=0, vertices=None, state_cache=None,
-                reference_seconds=600.0, out=None):
+                reference_seconds=600.0, out=None, body=None):
     """The convergence benchmark of `mgcloth bench convergence` (Wang 2018, Fig. 4): simulates the scene's first
-    step - 1 steps with newton-direct, freezes step `step`'s objective of cloth 0 and runs every solver of `solvers`
+    step - 1 steps with newton-direct, freezes step `step`'s objective of `body` (a cloth or shell by name; None:
+    the first) and runs every solver of `solvers`
     from the same start point for `budget` seconds or `max_iters` iterations, recording (E_k - E*)/(E_0 - E*).
 
     scene: a scene file path or dict whose meshes are files or generators (cloths given as arrays are not
@@ -302,4 +303,5 @@ def convergence(scene, solvers, *, step=1, budget=10.0, max_iters=10000, threads
     if isinstance(solvers, str):
         solvers = [s for s in solvers.split(",")]
     return _mgcloth._convergence(d, file, base_dir, list(solvers), step, budget, max_iters, threads, vertices,
-                                 "" if state_cache is None else _os.fspath(state_cache), reference_seconds, out)
+                                 "" if state_cache is None else _os.fspath(state_cache), reference_seconds, out,
+                                 "" if body is None else body)

@@ -115,7 +115,7 @@ void bind_convergence(py::module_& m) {
       "_convergence",
       [](py::handle scene, const std::string& file, const std::string& base_dir, const std::vector<std::string>& solvers,
          int step, double budget, int max_iters, int threads, std::optional<Index> vertices,
-         const std::string& state_cache, double reference_seconds, py::handle out) {
+         const std::string& state_cache, double reference_seconds, py::handle out, const std::string& body) {
         Json j;
         try {
           j = to_json(scene, "");
@@ -138,6 +138,7 @@ void bind_convergence(py::module_& m) {
         opt.max_iters = max_iters;
         opt.threads = threads;
         opt.state_cache = state_cache;
+        opt.body = body;
         opt.reference_max_seconds = reference_seconds;
         check(opt, vertices.value_or(1));
         if (vertices) {
@@ -161,7 +162,7 @@ void bind_convergence(py::module_& m) {
       },
       py::arg("scene"), py::arg("file"), py::arg("base_dir"), py::arg("solvers"), py::arg("step"), py::arg("budget"),
       py::arg("max_iters"), py::arg("threads"), py::arg("vertices"), py::arg("state_cache"),
-      py::arg("reference_seconds"), py::arg("out"),
+      py::arg("reference_seconds"), py::arg("out"), py::arg("body") = "",
       "The convergence benchmark on a scene dict (mgcloth.convergence() is the front end): see "
       "sim::run_convergence and `mgcloth bench convergence`.");
 }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <unistd.h>
 #include <sys/wait.h>
 
 namespace mgcloth::test {
@@ -33,8 +34,9 @@ class TempDirTest : public ::testing::Test {
  protected:
   explicit TempDirTest(std::string prefix) : m_prefix(std::move(prefix)) {}
   void SetUp() override {
+    // The process id keeps two runs of the suite (a CI clone and a developer's build) out of each other's folders.
     dir = std::filesystem::temp_directory_path() /
-          (m_prefix + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+          (m_prefix + ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
   }

@@ -13,6 +13,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <unistd.h>
+
 #include <regex>
 
 #include <array>
@@ -34,7 +37,8 @@ Result run(const std::string& args) { return mgcloth::test::run_cli(args); }
 class Cli : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir = fs::temp_directory_path() / ("mgcloth_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir = fs::temp_directory_path() / ("mgcloth_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+                                           std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
   }

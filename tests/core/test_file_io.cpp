@@ -19,7 +19,8 @@ class AtomicWrite : public ::testing::Test {
  protected:
   void SetUp() override {
     dir = fs::temp_directory_path() /
-          ("mgcloth_file_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+          ("mgcloth_file_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+           std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     target = dir / "checkpoint.bin";
@@ -75,7 +76,7 @@ TEST(AtomicWriteTemporaries, AreRecognizedByName) {
 }
 
 TEST(AtomicWriteTemporaries, OnlyOursAreRemoved) {
-  const fs::path dir = fs::temp_directory_path() / "mgcloth_file_io_remove";
+  const fs::path dir = fs::temp_directory_path() / ("mgcloth_file_io_remove_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   for (const char* name : {"stats.csv.tmp12", "stats.csv", "notes.txt.tmp3", "stats.csv.tmpx"}) std::ofstream(dir / name) << "x";

@@ -3,6 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <unistd.h>
+
 #include <cmath>
 #include <map>
 #include <set>
@@ -172,7 +175,7 @@ TEST(QuadMesh, ValidateNamesTheBadElement) {
 }
 
 std::filesystem::path write_temp(const std::string& name, const std::string& text) {
-  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_quad_" + name);
+  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_quad_" + name + "_" + std::to_string(::getpid()));
   std::ofstream(path) << text;
   return path;
 }

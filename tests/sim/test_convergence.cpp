@@ -2,6 +2,7 @@
 // and one tiny convergence run.
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/sim/simulator.hpp>
 
 #include <gtest/gtest.h>
 
@@ -247,3 +248,33 @@ TEST(Convergence, ReferencesOnlyForTheFormsBenchmarked) {
 }
 
 }  // namespace
+
+// `bench convergence --body NAME` freezes the step of any body of the scene, solved on its own.
+TEST(Convergence, TheBenchmarkedBodyIsChosenByName) {
+  Json j = parse_json(R"({ "cloths": [
+      { "name": "sheet", "mesh": { "vertices": 100 }, "transform": { "translation": [-0.5, -0.5, 1.0] },
+        "pins": [ { "points": [[0, 1], [1, 1]] } ] },
+      { "name": "flag", "mesh": { "vertices": 60 }, "transform": { "translation": [1.0, -0.5, 1.0] },
+        "pins": [ { "points": [[0, 1]] } ] } ],
+      "solver": { "rel_grad": 1e-4 } })", "two.json");
+  const sim::Scene scene = sim::parse_scene(j, "two.json", ".");
+  sim::ConvergenceOptions opt;
+  opt.solvers = sim::parse_solver_list("newton");
+  opt.budget_seconds = 5.0;
+  opt.max_iters = 40;
+  opt.threads = 1;
+  opt.body = "flag";
+  const auto r = sim::run_convergence(scene, opt);
+  EXPECT_EQ(r.cloth, "flag");
+  const sim::Simulator s(scene);
+  EXPECT_EQ(r.vertices, s.bodies()[1]->num_points());
+  ASSERT_EQ(r.summaries.size(), 1u);
+  EXPECT_LT(std::abs(r.summaries[0].final_error), 1e-6);
+  opt.body = "skirt";
+  try {
+    sim::run_convergence(scene, opt);
+    ADD_FAILURE() << "an unknown body must be refused";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no body named \"skirt\" (its bodies: sheet, flag)"), std::string::npos) << e.what();
+  }
+}

@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <unistd.h>
+
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -142,7 +145,7 @@ void run(const sim::Scene& scene, const fs::path& dir, bool resume, int stop_aft
 }  // namespace
 
 TEST(GltfFormat, AnimationMatchesObjFramesAndObstaclePoses) {
-  const fs::path dir = fs::temp_directory_path() / "mgcloth_gltf_test";
+  const fs::path dir = fs::temp_directory_path() / ("mgcloth_gltf_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   constexpr int kFrames = 4;
   const sim::Scene scene = parse(drape_json(kFrames, {"obj", "glb"}));
@@ -226,7 +229,7 @@ TEST(GltfFormat, AnimationMatchesObjFramesAndObstaclePoses) {
 // A run interrupted after frames.bin got a frame but before that frame's checkpoint, with a record cut short at
 // its end, resumes to an animation with every frame exactly once, equal to an uninterrupted run's.
 TEST(GltfFormat, ResumeKeepsEveryFrameOnce) {
-  const fs::path root = fs::temp_directory_path() / "mgcloth_gltf_resume_test";
+  const fs::path root = fs::temp_directory_path() / ("mgcloth_gltf_resume_test_" + std::to_string(::getpid()));
   fs::remove_all(root);
   constexpr int kFrames = 6;
   const sim::Scene full = parse(drape_json(kFrames, {"obj", "glb"}));
@@ -270,7 +273,7 @@ TEST(GltfFormat, ResumeKeepsEveryFrameOnce) {
 // The file is streamed (its buffer written a frame at a time, from frames.bin) but is byte for byte what tinygltf
 // writes for the model it holds, as the whole model built in memory was written before.
 TEST(GltfFormat, StreamedFileIsWhatTinygltfWritesForItsModel) {
-  const fs::path dir = fs::temp_directory_path() / "mgcloth_gltf_stream_test";
+  const fs::path dir = fs::temp_directory_path() / ("mgcloth_gltf_stream_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   run(parse(drape_json(5, "glb")), dir, false);
   const std::string bytes = read_file(dir / "animation.glb");
@@ -289,7 +292,7 @@ TEST(GltfFormat, AFailedFrameReadLeavesNoFile) {
   s.num_vertices = 3;
   s.tris = {{0, 1, 2}};
   s.times = {0.0, 0.5, 1.0};
-  const fs::path dir = fs::temp_directory_path() / "mgcloth_gltf_read_fails";
+  const fs::path dir = fs::temp_directory_path() / ("mgcloth_gltf_read_fails_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   int reads = 0;
@@ -321,7 +324,7 @@ TEST(GltfFormat, ObstacleShapesAreTessellatedToSize) {
   obstacles[2].motion = std::make_shared<geometry::ConstantVelocityMotion>(placed, Vec3::Zero(), Vec3::Zero());
   obstacles[3].name = "pill";
   obstacles[3].shape = std::make_shared<geometry::Capsule>(0.2, 0.4);
-  const fs::path file = fs::temp_directory_path() / "mgcloth_gltf_shapes_test.glb";
+  const fs::path file = fs::temp_directory_path() / ("mgcloth_gltf_shapes_test_" + std::to_string(::getpid()) + ".glb");
   sim::write_glb(file, s, obstacles);
   const auto m = load_glb(file);
   const auto bounds = [&](const std::string& name) {
@@ -362,6 +365,6 @@ TEST(GltfFormat, ObstacleShapesAreTessellatedToSize) {
 TEST(GltfFormat, GlbIsRefusedWithoutTinygltf) {
   const sim::Scene scene = parse(drape_json(1, "glb"));
   sim::Simulator s(scene);
-  EXPECT_THROW(sim::Recorder(fs::temp_directory_path() / "mgcloth_gltf_unavailable", s), InputError);
+  EXPECT_THROW(sim::Recorder(fs::temp_directory_path() / ("mgcloth_gltf_unavailable_" + std::to_string(::getpid())), s), InputError);
 }
 #endif

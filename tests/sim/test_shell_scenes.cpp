@@ -6,6 +6,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -173,7 +176,7 @@ TEST(ShellScenes, ShellNamesAreCheckedLikeClothNames) {
 
 // An OBJ without faces was reported as "every quad is a ghost quad".
 TEST(ShellScenes, EmptyControlMeshIsNamedEmpty) {
-  const auto path = std::filesystem::temp_directory_path() / "mgcloth_empty_control_mesh.obj";
+  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_empty_control_mesh_" + std::to_string(::getpid()) + ".obj");
   std::ofstream(path) << "# nothing here\nv 0 0 0\n";
   Json j = plate("fixed", 1);
   j["shells"][0]["control_mesh"] = {{"file", path.string()}};

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <string>
+#include <unistd.h>
 
 using namespace mgcloth;
 namespace fs = std::filesystem;
@@ -76,7 +78,7 @@ TEST(Simulation, HangingClothStaysAttachedAndSwingsDown) {
 }
 
 TEST(Simulation, ResumeReproducesAnUninterruptedRun) {
-  const fs::path root = fs::temp_directory_path() / "mgcloth_resume_test";
+  const fs::path root = fs::temp_directory_path() / ("mgcloth_resume_test_" + std::to_string(::getpid()));
   fs::remove_all(root);
   auto scene = shipped("drape_sphere", 400, 6);
   {

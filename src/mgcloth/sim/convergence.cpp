@@ -56,11 +56,25 @@ SolverSpec elastic_reference() {
   return parse_solver_spec("newton@linear_solver=cholmod");
 }
 
+/// The studied body's index among the scene's bodies (its cloths, then its shells), which is also its group: the
+/// study's simulators solve every body separately.
+size_t study_body(const Scene& scene, const std::string& name) {
+  std::vector<std::string> names;
+  for (const auto& c : scene.cloths) names.push_back(c.name);
+  for (const auto& s : scene.shells) names.push_back(s.name);
+  if (names.empty()) throw_input_error("{}: the scene has no bodies", scene.file);
+  if (name.empty()) return 0;
+  for (size_t b = 0; b < names.size(); ++b)
+    if (names[b] == name) return b;
+  throw_input_error("body: {} has no body named \"{}\" (its bodies: {})", scene.file, name, fmt::join(names, ", "));
+}
+
 std::string form_name(bool projective) { return projective ? "projective" : "elastic"; }
 
 /// The scene with `spec` as its solver (its stop criteria kept), in the energy form the solver was made for (the
 /// study compares each solver on its own form), and the options' thread count.
 Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
+  scene.solve_jointly = false;  // the study freezes one body's own step objective
   scene.solver.name = spec.config.name;
   scene.solver.params = spec.config.params;
   scene.energy_form = check_solver_spec(spec) ? physics::EnergyForm::Projective : physics::EnergyForm::Elastic;
@@ -146,10 +160,11 @@ ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool
 ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                  const ConvergenceOptions& opt, const SimState& state, const VecX& x0,
                                  const Json& state_key) {
-  const Json key = {{"state", state_key},         {"form", form_name(projective)},
-                    {"solver", spec.label},       {"rel_grad", opt.reference_rel_grad},
-                    {"max_iters", max_iters},     {"max_seconds", opt.reference_max_seconds},
-                    {"threads", opt.threads}};
+  Json key = {{"state", state_key},         {"form", form_name(projective)},
+              {"solver", spec.label},       {"rel_grad", opt.reference_rel_grad},
+              {"max_iters", max_iters},     {"max_seconds", opt.reference_max_seconds},
+              {"threads", opt.threads}};
+  if (!opt.body.empty()) key["body"] = opt.body;  // (caches of the first body written before --body stay valid)
   if (auto cached = load_reference(opt.state_cache, key)) {
     logger().info("E* ({} form) = {:.15e} read from {}", cached->form, cached->energy,
                   reference_cache_file(opt.state_cache).string());
@@ -166,7 +181,7 @@ ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
   VecX start;
-  solvers::Problem problem = sim->prepare_problem(0, start);
+  solvers::Problem problem = sim->prepare_problem(study_body(scene, opt.body), start);
   VecX x = from;
   ReferenceEnergy ref;
   ref.form = form_name(projective);
@@ -344,7 +359,7 @@ std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, con
 
 ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& opt) {
   check_options(opt);
-  if (scene.cloths.empty()) throw_input_error("{}: the scene has no cloths", scene.file);
+  const size_t body = study_body(scene, opt.body);
   // Every spec is built once now, so that a typo fails before anything is simulated.
   std::vector<bool> projective;
   for (const auto& spec : opt.solvers) projective.push_back(check_solver_spec(spec));
@@ -357,12 +372,12 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
 
   ConvergenceResult result;
   result.scene = scene.file;
-  result.cloth = scene.cloths[0].name;
+  result.cloth = body < scene.cloths.size() ? scene.cloths[body].name : scene.shells[body - scene.cloths.size()].name;
   result.step = opt.step;
   result.warmup_solver = elastic.label;
-  if (scene.cloths.size() > 1)
-    logger().info("{}: {} cloths; the benchmark freezes the objective of cloth 0 (\"{}\") only", scene.file,
-                  scene.cloths.size(), result.cloth);
+  if (scene.cloths.size() + scene.shells.size() > 1)
+    logger().info("{}: {} bodies; the benchmark freezes the objective of \"{}\" (--body) only", scene.file,
+                  scene.cloths.size() + scene.shells.size(), result.cloth);
 
   // The state at the start of step K: simulated with the reference solver and the scene's stop criteria, or cached.
   const long steps_before = opt.step - 1;
@@ -393,10 +408,10 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
   VecX x0;
   {
     auto sim = simulator_at(scene, elastic, opt.threads, *state);
-    (void)sim->prepare_problem(0, x0);
+    (void)sim->prepare_problem(study_body(scene, opt.body), x0);
     result.vertices = static_cast<Index>(x0.size() / 3);
   }
-  logger().info("{}: step {} of cloth \"{}\" ({} vertices)", scene.file, opt.step, result.cloth, result.vertices);
+  logger().info("{}: step {} of \"{}\" ({} points)", scene.file, opt.step, result.cloth, result.vertices);
 
   // E* per energy form that some solver minimizes: ref_index[form] is its place in result.references.
   const bool any_elastic = std::find(projective.begin(), projective.end(), false) != projective.end();
@@ -426,7 +441,7 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     const ReferenceEnergy& ref = reference_of(projective[i]);
     auto sim = simulator_at(scene, spec, opt.threads, *state);
     VecX own_start;
-    solvers::Problem problem = sim->prepare_problem(0, own_start);
+    solvers::Problem problem = sim->prepare_problem(study_body(scene, opt.body), own_start);
     if (own_start.size() != x0.size())
       throw_error("{}: its simulator has {} dofs, the reference's {}", spec.label, own_start.size(), x0.size());
     if ((own_start - x0).cwiseAbs().maxCoeff() > 1e-12)
@@ -597,6 +612,7 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
           {"timing", "each solver is warmed up by one untimed iteration on a copy of x0 (one-time set-up), then timed"},
           {"options",
            {{"step", opt.step},
+            {"body", result.cloth},
             {"budget_seconds", opt.budget_seconds},
             {"max_iters", opt.max_iters},
             {"threads", opt.threads > 0 ? opt.threads : num_threads()},

@@ -54,6 +54,9 @@ void save_state_cache(const std::filesystem::path& file, const Json& key, const 
 
 struct ConvergenceOptions {
   int step = 1;  ///< K: the benchmarked step is the K-th of the scene (K − 1 steps are simulated first)
+  /// The body whose step objective is frozen (a cloth or shell of the scene by name; empty: the first body). The
+  /// study simulates the scene with every body solved separately, so the frozen problem is that body's own.
+  std::string body;
   std::vector<SolverSpec> solvers;
   double budget_seconds = 10.0;  ///< wall time per solver (the timed run)
   int max_iters = 10000;         ///< iterations per solver (the timed run)
