@@ -2,6 +2,7 @@
 // on stdout and a plot drawn by the matplotlib scripts of bench/, which are embedded in the binary at build time and
 // run with python3 from a temporary copy (so the command works from any folder and when installed).
 #include "commands.hpp"
+#include "subprocess.hpp"
 
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
@@ -17,18 +18,13 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
-
-extern char** environ;
 
 namespace mgcloth::cli {
 
@@ -79,51 +75,6 @@ struct ProjectionArgs {
   bool quiet = false;
 } g_proj;
 
-struct ProcessResult {
-  bool started = false;
-  int code = -1;
-  std::string output;  ///< stdout and stderr together
-};
-
-/// Runs argv[0] (looked up in PATH) with its output captured; no shell, so paths need no quoting.
-ProcessResult run_process(const std::vector<std::string>& argv) {
-  ProcessResult r;
-  int pipe_fds[2];
-  if (::pipe(pipe_fds) != 0) return r;
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDERR_FILENO);
-  posix_spawn_file_actions_addclose(&actions, pipe_fds[1]);
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = 0;
-  const int err = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  ::close(pipe_fds[1]);
-  if (err == 0) {
-    char buf[4096];
-    for (ssize_t n; (n = ::read(pipe_fds[0], buf, sizeof buf)) > 0;) r.output.append(buf, static_cast<size_t>(n));
-  }
-  ::close(pipe_fds[0]);
-  if (err != 0) return r;
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  r.started = r.code != 127;  // 127: the spawned shell-less exec failed
-  return r;
-}
-
-std::string last_line(const std::string& text) {
-  std::string t = text;
-  while (!t.empty() && (t.back() == '\n' || t.back() == '\r')) t.pop_back();
-  const auto nl = t.rfind('\n');
-  return nl == std::string::npos ? t : t.substr(nl + 1);
-}
-
 /// Draws `png` from `csv` with an embedded plot script. Interpreters tried: $MGCLOTH_PYTHON alone when set;
 /// otherwise python3 from PATH, then /usr/bin/python3 (Debian's python3-matplotlib lives there when PATH starts with
 /// a virtual environment or pyenv). Throws Error saying why the picture could not be made.
@@ -150,17 +101,24 @@ void make_plot(std::string_view script, const std::string& script_name, const fs
   for (const auto& python : interpreters) {
     std::vector<std::string> argv{python, tmp.string(), csv.string(), png.string()};
     if (!title.empty()) argv.insert(argv.end(), {"--title", title});
-    const ProcessResult r = run_process(argv);
-    if (!r.started) {
+    ProgramResult r;
+    try {
+      r = run_program(argv);
+    } catch (const ProgramNotStarted& e) {
+      why.push_back(e.what());
+      continue;
+    }
+    // 127: what a shim (pyenv's, say) exits with when the interpreter it stands for is not installed.
+    if (r.exit_code == 127 && r.signal == 0) {
       why.push_back(fmt::format("{} not found", python));
       continue;
     }
-    if (r.code == 0 && fs::exists(png)) return;
-    if (r.code == 3) {  // the script's "matplotlib is missing"
+    if (r.succeeded() && fs::exists(png)) return;
+    if (r.exit_code == 3 && r.signal == 0) {  // the script's "matplotlib is missing"
       why.push_back(fmt::format("{} has no matplotlib", python));
       continue;
     }
-    throw_error("could not make {}: {} {} failed (exit {}): {}", png.string(), python, script_name, r.code,
+    throw_error("could not make {}: {} {} failed ({}): {}", png.string(), python, script_name, r.status(),
                 last_line(r.output));
   }
   throw_error("could not make {}: {} (install python3-matplotlib, or set MGCLOTH_PYTHON to a python3 that has it)",

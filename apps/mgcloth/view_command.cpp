@@ -4,6 +4,7 @@
 // the README is exactly what a user sees in the viewer.
 #include "commands.hpp"
 #include "http_server.hpp"
+#include "subprocess.hpp"
 
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/interrupt.hpp>
@@ -13,20 +14,12 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <fcntl.h>
 #include <filesystem>
 #include <memory>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <thread>
-#include <unistd.h>
-
-extern char** environ;
 
 namespace mgcloth::cli {
 
@@ -142,20 +135,6 @@ int view() {
   return 0;
 }
 
-/// `name` as found in PATH, or empty.
-std::string find_in_path(const std::string& name) {
-  if (name.find('/') != std::string::npos) return ::access(name.c_str(), X_OK) == 0 ? name : "";
-  const char* path = std::getenv("PATH");
-  std::string p = path ? path : "/usr/local/bin:/usr/bin:/bin";
-  for (std::size_t start = 0; start <= p.size();) {
-    const std::size_t end = std::min(p.find(':', start), p.size());
-    const fs::path candidate = fs::path(p.substr(start, end - start).empty() ? "." : p.substr(start, end - start)) / name;
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
-    start = end + 1;
-  }
-  return {};
-}
-
 std::string find_program(const char* env_name, const std::vector<std::string>& names, const std::string& how_to_get) {
   if (const char* env = std::getenv(env_name); env && *env) {
     const std::string found = find_in_path(env);
@@ -165,48 +144,6 @@ std::string find_program(const char* env_name, const std::vector<std::string>& n
   for (const auto& n : names)
     if (std::string found = find_in_path(n); !found.empty()) return found;
   throw_input_error("render: {} not found ({}, or set {})", names.front(), how_to_get, env_name);
-}
-
-struct Child {
-  int code = -1;
-  std::string output;
-};
-
-/// Runs argv with stdout and stderr captured together (no shell, so paths need no quoting).
-Child run_child(const std::vector<std::string>& argv) {
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) throw_error("render: cannot create a pipe: {}", std::strerror(errno));
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = 0;
-  const int err = ::posix_spawn(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  ::close(fds[1]);
-  Child c;
-  if (err != 0) {
-    ::close(fds[0]);
-    throw_error("render: cannot start {}: {}", argv[0], std::strerror(err));
-  }
-  char buf[4096];
-  for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0 || (n < 0 && errno == EINTR);)
-    if (n > 0) c.output.append(buf, static_cast<std::size_t>(n));
-  ::close(fds[0]);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  c.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  return c;
-}
-
-std::string last_line(std::string text) {
-  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-  const auto nl = text.rfind('\n');
-  return nl == std::string::npos ? text : text.substr(nl + 1);
 }
 
 int render() {
@@ -243,11 +180,15 @@ int render() {
   std::string query = fmt::format("?render=1&mode={}", g_render.wireframe ? "wire" : "shaded");
   if (g_render.frame >= 0) query += fmt::format("&frame={}", g_render.frame);
   if (g_render.source != "auto") query += "&source=" + g_render.source;
-  Child child;
+  ProgramResult child;
   try {
-    child = run_child({node, script.string(), "--url", server->url() + query, "--out", out.string(),
+    child = run_program({node, script.string(), "--url", server->url() + query, "--out", out.string(),
                        "--width", std::to_string(g_render.width), "--height", std::to_string(g_render.height),
                        "--chromium", chromium, "--timeout", fmt::format("{}", g_render.timeout)});
+  } catch (const ProgramNotStarted& e) {
+    stop = true;
+    serving.join();
+    throw_error("render: {}", e.what());
   } catch (...) {
     stop = true;
     serving.join();
@@ -255,10 +196,10 @@ int render() {
   }
   stop = true;
   serving.join();
-  if (child.code != 0) {
+  if (!child.succeeded()) {
     std::string why = child.output.empty() ? "render.mjs failed" : last_line(child.output);
     if (why.rfind("render: ", 0) == 0) why.erase(0, 8);
-    throw_error("render {}: {} (exit {})", g_render.dir, why, child.code);
+    throw_error("render {}: {} ({})", g_render.dir, why, child.status());
   }
   if (!fs::exists(out)) throw_error("render {}: render.mjs ended without writing {}", g_render.dir, g_render.out);
   std::fputs(child.output.c_str(), stdout);
