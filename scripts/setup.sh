@@ -8,7 +8,7 @@ PACKAGES=(
   build-essential cmake pkg-config
   libeigen3-dev libsuitesparse-dev libhypre-dev libopenblas0-openmp libcgal-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtinyobjloader-dev
-  libgtest-dev libbenchmark-dev libpng-dev libosd-dev libtinygltf-dev
+  libgtest-dev libbenchmark-dev libpng-dev libosd-dev libtinygltf-dev libcpp-httplib-dev
   python3-matplotlib
   pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-setuptools
 )

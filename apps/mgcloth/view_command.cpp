@@ -3,7 +3,7 @@
 // web/render.mjs through playwright-core, and saves what it shows as a PNG. One page draws both, so a picture in
 // the README is exactly what a user sees in the viewer.
 #include "commands.hpp"
-#include "http_server.hpp"
+#include "file_server.hpp"
 #include "subprocess.hpp"
 
 #include <mgcloth/core/error.hpp>
@@ -111,8 +111,8 @@ Generated listing(const fs::path& dir, const std::string& shown_as) {
   return {"application/json", j.dump()};
 }
 
-std::unique_ptr<HttpServer> make_server(int port, const std::string& dir) {
-  auto server = std::make_unique<HttpServer>(port);
+std::unique_ptr<FileServer> make_server(int port, const std::string& dir) {
+  auto server = std::make_unique<FileServer>(port);
   server->mount({"/", viewer_dir()});
   server->mount({"/data/", fs::path(dir)});
   server->generate("/api/listing.json", [root = fs::path(dir), dir] { return listing(root, dir); });
