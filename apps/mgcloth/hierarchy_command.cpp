@@ -2,10 +2,10 @@
 // App. B) and shows it: every level as OBJ (world and material space), a picture of the levels side by side in
 // material space, and a table of level sizes and of the colors the multi-color Gauss-Seidel smoother needs.
 #include "commands.hpp"
+#include "raster.hpp"
 
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
-#include <mgcloth/core/image.hpp>
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>

@@ -1,6 +1,5 @@
 // Drives the built `mgcloth` executable the way a user does: exit codes, one-line errors, outputs on disk.
 #include <mgcloth/core/file_io.hpp>
-#include <mgcloth/core/image.hpp>
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
@@ -10,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "cli_run.hpp"
+#include "raster.hpp"
 
 #include <gtest/gtest.h>
 
@@ -248,7 +248,7 @@ TEST_F(Cli, HierarchyOfASceneWritesNestedLevelsPictureAndReport) {
   ASSERT_GE(png.size(), 33u);
   EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
   EXPECT_EQ(png.substr(12, 4), "IHDR");
-  const auto img = mgcloth::Image::read_png(out / "levels.png");
+  const auto img = mgcloth::cli::Image::read_png(out / "levels.png");
   EXPECT_EQ(img.width(), 128 * static_cast<int>(levels.size()));
   EXPECT_GT(img.height(), 128);
   long dark = 0, red = 0;
@@ -342,7 +342,7 @@ bool plot_unavailable(const Result& r) {
 }
 /// A picture with something drawn on it (not one flat colour).
 void expect_plot(const fs::path& png) {
-  const auto img = mgcloth::Image::read_png(png);
+  const auto img = mgcloth::cli::Image::read_png(png);
   EXPECT_GT(img.width(), 200);
   EXPECT_GT(img.height(), 200);
   long dark = 0;

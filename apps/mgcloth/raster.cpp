@@ -1,6 +1,7 @@
+#include "raster.hpp"
+
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
-#include <mgcloth/core/image.hpp>
 
 #include <png.h>
 
@@ -9,7 +10,7 @@
 #include <cmath>
 #include <string_view>
 
-namespace mgcloth {
+namespace mgcloth::cli {
 
 namespace {
 
@@ -200,4 +201,4 @@ Image Image::read_png(const std::filesystem::path& path) {
   return out;
 }
 
-}  // namespace mgcloth
+}  // namespace mgcloth::cli

@@ -1,12 +1,13 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
-#include <mgcloth/core/image.hpp>
+
+#include "raster.hpp"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
-namespace mgcloth {
+namespace mgcloth::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -124,4 +125,4 @@ TEST(Image, ReadingANonPngNamesTheFile) {
 }
 
 }  // namespace
-}  // namespace mgcloth
+}  // namespace mgcloth::cli

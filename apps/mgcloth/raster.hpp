@@ -1,11 +1,13 @@
 #pragma once
+// Pictures drawn by the CLI itself, without a browser: the hierarchy levels of `mgcloth hierarchy`. The library
+// draws nothing; this is the command-line tool's own.
 #include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
 
-namespace mgcloth {
+namespace mgcloth::cli {
 
 /// An 8-bit RGB colour.
 struct Rgb {
@@ -57,4 +59,4 @@ class Image {
   std::vector<std::uint8_t> m_pixels;  ///< 3 bytes per pixel, rows top to bottom
 };
 
-}  // namespace mgcloth
+}  // namespace mgcloth::cli
