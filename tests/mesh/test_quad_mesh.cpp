@@ -175,7 +175,7 @@ TEST(QuadMesh, ValidateNamesTheBadElement) {
 }
 
 std::filesystem::path write_temp(const std::string& name, const std::string& text) {
-  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_quad_" + name + "_" + std::to_string(::getpid()));
+  const auto path = std::filesystem::temp_directory_path() / ("mgcloth_quad_" + std::to_string(::getpid()) + "_" + name);
   std::ofstream(path) << text;
   return path;
 }
