@@ -58,10 +58,12 @@ int connect_to(int port) {
   return fd;
 }
 
-std::string read_all(int fd) {
+/// Reads from fd until `done(data)` holds, the peer closes, or 5 s pass without data.
+template <class Done>
+std::string read_until(int fd, Done done) {
   std::string data;
   char buf[8192];
-  for (;;) {
+  while (!done(data)) {
     pollfd p{fd, POLLIN, 0};
     if (::poll(&p, 1, 5000) <= 0) break;
     const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
@@ -71,24 +73,19 @@ std::string read_all(int fd) {
   return data;
 }
 
+std::string read_all(int fd) {
+  return read_until(fd, [](const std::string&) { return false; });
+}
+
 /// One response with a Content-Length, read from a connection that stays open.
 std::string read_response(int fd) {
-  std::string data;
-  char buf[8192];
   const std::regex length("\r\nContent-Length: (\\d+)\r\n", std::regex::icase);
-  for (;;) {
+  return read_until(fd, [&](const std::string& data) {
     const auto end = data.find("\r\n\r\n");
     std::smatch m;
-    if (end != std::string::npos && std::regex_search(data, m, length) &&
-        data.size() >= end + 4 + std::stoul(m[1].str()))
-      break;
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, 5000) <= 0) break;
-    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
-    if (n <= 0) break;
-    data.append(buf, static_cast<size_t>(n));
-  }
-  return data;
+    return end != std::string::npos && std::regex_search(data, m, length) &&
+           data.size() >= end + 4 + std::stoul(m[1].str());
+  });
 }
 
 Response parse(const std::string& raw) {
