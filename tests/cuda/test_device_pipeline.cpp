@@ -9,6 +9,7 @@
 #include <mgcloth/linalg/galerkin.hpp>
 #include <mgcloth/physics/contact.hpp>
 #include <mgcloth/physics/seam.hpp>
+#include <mgcloth/solvers/fmg_cuda.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 
 #include <gtest/gtest.h>
@@ -63,6 +64,25 @@ VecX perturbed(const Fixture& f, std::uint64_t seed) {
     x[3 * i + 2] += 0.002 * n01(rng);
   }
   return x;
+}
+
+/// fmg-cuda: the FMG cycle the CPU solver runs, over the device pipeline (here its host backend).
+std::unique_ptr<solvers::FmgCuda> device_solver(cuda::Backend backend = cuda::Backend::Host, cuda::FmgSettings s = {}) {
+  return std::make_unique<solvers::FmgCuda>(backend, std::move(s));
+}
+
+/// One solve of the fixture's objective from x; `project`: iterates are made feasible (the device projects with its
+/// own copy of the obstacles; the problem's hook only says that it should).
+solvers::SolveReport solve(solvers::FmgCuda& solver, const Fixture& f, bool project, VecX& x, double rel_grad,
+                           int max_iters) {
+  solvers::Problem problem;
+  problem.objective = &f.cloth->objective;
+  problem.hierarchy = f.h.levels_for_solvers();
+  if (project) problem.project = [](VecX&) -> Index { return 0; };
+  solvers::Stop stop;
+  stop.rel_grad = rel_grad;
+  stop.max_iters = max_iters;
+  return solver.minimize(problem, x, stop, nullptr);
 }
 
 std::vector<double> device_x(const HostPipeline& p, const VecX& x) {
@@ -122,12 +142,12 @@ TEST_P(DevicePipelineBending, EnergyGradientAndHessianEqualTheCpuObjective) {
     const VecX x = perturbed(f, seed);
     std::vector<double> xd = device_x(p, x);
     const double e_cpu = f.cloth->objective.value(x);
-    EXPECT_NEAR(p.energy(xd.data()), e_cpu, 1e-12 * std::abs(e_cpu));
+    EXPECT_NEAR(p.energy_at(xd.data()), e_cpu, 1e-12 * std::abs(e_cpu));
     EXPECT_GT(f.cloth->objective.term_values(x).back().second, 0.0) << "the state must be in contact";
     VecX g_cpu;
     f.cloth->objective.gradient(x, g_cpu);
     std::vector<double> gd(xd.size());
-    p.gradient(xd.data(), gd.data());
+    p.gradient_at(xd.data(), gd.data());
     VecX g_dev;
     cuda::from_device_order(p.layout(), gd, g_dev);
     EXPECT_LE((g_dev - g_cpu).norm(), 1e-11 * g_cpu.norm());
@@ -156,14 +176,11 @@ TEST_P(DevicePipelineBending, EnergyGradientAndHessianEqualTheCpuObjective) {
 TEST_P(DevicePipelineBending, AStepSolvesTheCpuObjective) {
   // fmg-cuda's minimize on the host backend, judged by the CPU objective's own gradient at its result.
   const Fixture f = make(600, true, 0.0, GetParam());
-  auto solver = cuda::make_device_fmg(cuda::Backend::Host, {});
-  cuda::Limits limits;
-  limits.rel_grad = 1e-6;
-  limits.max_iters = 300;
+  auto solver = device_solver();
   VecX x = f.cloth->x0;
   VecX g0;
   f.cloth->objective.gradient(x, g0);
-  const cuda::Outcome out = solver->minimize(f.cloth->objective, f.tables, true, x, limits, false);
+  const solvers::SolveReport out = solve(*solver, f, true, x, 1e-6, 300);
   EXPECT_EQ(out.status, "converged");
   VecX g;
   f.cloth->objective.gradient(x, g);
@@ -224,11 +241,9 @@ TEST(DevicePipeline, TheGalerkinGatherEqualsAGeneralSpgemmOfTheScalarMatrices) {
   const Fixture f = make(1500, true);
   cuda::FmgSettings s;
   s.compare_spgemm = true;
-  auto solver = cuda::make_device_fmg(cuda::Backend::Host, s);
+  auto solver = device_solver(cuda::Backend::Host, s);
   VecX x = perturbed(f, 11);
-  cuda::Limits limits;
-  limits.max_iters = 1;
-  const cuda::Outcome out = solver->minimize(f.cloth->objective, f.tables, true, x, limits, false);
+  const solvers::SolveReport out = solve(*solver, f, true, x, 1e-6, 1);
   std::map<std::string, double> c(out.counters.begin(), out.counters.end());
   ASSERT_TRUE(c.count("spgemm_max_rel_diff")) << "no comparison in the counters";
   EXPECT_LT(c["spgemm_max_rel_diff"], 1e-13);
@@ -305,7 +320,7 @@ TEST(DevicePipeline, ProjectionMovesVerticesOutOfTheObstacle) {
   const Index moved_cpu = physics::project_out_of_obstacles(x_cpu, contact->obstacle_data());
   std::vector<double> xd = device_x(p, x);
   EXPECT_GT(moved_cpu, 0);
-  EXPECT_EQ(p.project(xd.data()), moved_cpu);
+  EXPECT_EQ(p.project_at(xd.data()), moved_cpu);
   VecX x_dev;
   cuda::from_device_order(p.layout(), xd, x_dev);
   EXPECT_LE((x_dev - x_cpu).lpNorm<Eigen::Infinity>(), 1e-15);
@@ -319,10 +334,8 @@ TEST(DevicePipeline, TheStepEndsOnTheDeviceAsOnTheCpuWithProjectionVelocityAndFr
   for (Index i = 0; i < x.size() / 3; ++i)
     x[3 * i + 1] += 0.12 * std::exp(-50.0 * (Vec3(x[3 * i], 0.0, x[3 * i + 2]) - Vec3(0.2, 0.0, -0.2)).squaredNorm());
   const VecX x_old = f.cloth->x0;
-  auto device = cuda::make_device_fmg(cuda::Backend::Host, {});
-  cuda::Limits limits;
-  limits.max_iters = 2;
-  device->minimize(f.cloth->objective, f.tables, false, x, limits, false);
+  auto device = device_solver();
+  solve(*device, f, false, x, 1e-6, 2);
   VecX x_dev, v_dev;
   device->finish_step(x_old, h, x_dev, v_dev);
 
@@ -369,13 +382,10 @@ TEST(DevicePipeline, TheCudaBackendRunsWhereAGpuIsPresentAndSaysWhyNotElsewhere)
   // Same start, same settings: the GPU pipeline and its host emulation reach the same minimizer.
   const Fixture f = make(2000, true);
   VecX x_gpu = f.cloth->x0, x_host = f.cloth->x0;
-  cuda::Limits limits;
-  limits.rel_grad = 1e-6;
-  limits.max_iters = 500;
-  auto gpu = cuda::make_device_fmg(cuda::Backend::Cuda, {});
-  auto host = cuda::make_device_fmg(cuda::Backend::Host, {});
-  const cuda::Outcome a = gpu->minimize(f.cloth->objective, f.tables, true, x_gpu, limits, false);
-  const cuda::Outcome b = host->minimize(f.cloth->objective, f.tables, true, x_host, limits, false);
+  auto gpu = device_solver(cuda::Backend::Cuda);
+  auto host = device_solver(cuda::Backend::Host);
+  const solvers::SolveReport a = solve(*gpu, f, true, x_gpu, 1e-6, 500);
+  const solvers::SolveReport b = solve(*host, f, true, x_host, 1e-6, 500);
   EXPECT_EQ(a.status, "converged") << gpu->device();
   EXPECT_EQ(b.status, "converged");
   EXPECT_LE((x_gpu - x_host).norm(), 1e-5 * x_host.norm());
@@ -383,8 +393,8 @@ TEST(DevicePipeline, TheCudaBackendRunsWhereAGpuIsPresentAndSaysWhyNotElsewhere)
   // The step's end (projection, velocity, friction) on each.
   const Fixture moving = make(2000, true, 0.6);
   VecX xg = moving.cloth->x0, xh = moving.cloth->x0, xg_end, vg, xh_end, vh;
-  gpu->minimize(moving.cloth->objective, moving.tables, true, xg, limits, false);
-  host->minimize(moving.cloth->objective, moving.tables, true, xh, limits, false);
+  solve(*gpu, moving, true, xg, 1e-6, 500);
+  solve(*host, moving, true, xh, 1e-6, 500);
   gpu->finish_step(moving.cloth->x0, 1.0 / 30.0, xg_end, vg);
   host->finish_step(moving.cloth->x0, 1.0 / 30.0, xh_end, vh);
   EXPECT_LE((xg_end - xh_end).norm(), 1e-5 * xh_end.norm());
@@ -395,17 +405,14 @@ TEST(DevicePipeline, AReplayedVCycleGraphGivesTheSameSolveAsDirectLaunches) {
   // The host backend's graph records launches with their arguments frozen at capture, as CUDA stream capture does:
   // replaying it every direction (with new matrices in the same buffers) must give the same iterates bit for bit.
   const Fixture f = make(700, true);
-  cuda::Limits limits;
-  limits.rel_grad = 1e-6;
-  limits.max_iters = 200;
   std::vector<VecX> results;
   std::vector<double> launches;
   for (const bool graphs : {true, false}) {
     cuda::FmgSettings s;
     s.graphs = graphs;
-    auto solver = cuda::make_device_fmg(cuda::Backend::Host, s);
+    auto solver = device_solver(cuda::Backend::Host, s);
     VecX x = f.cloth->x0;
-    const cuda::Outcome out = solver->minimize(f.cloth->objective, f.tables, true, x, limits, false);
+    const solvers::SolveReport out = solve(*solver, f, true, x, 1e-6, 200);
     EXPECT_EQ(out.status, "converged");
     results.push_back(x);
     for (const auto& [name, value] : out.counters)

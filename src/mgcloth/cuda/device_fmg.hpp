@@ -9,16 +9,12 @@
 
 namespace mgcloth::cuda {
 
-/// Settings of the device FMG: the subset of solvers::FmgParams that the GPU pipeline implements (the paper's
-/// configuration: one linear V-cycle of the Galerkin hierarchy per search direction, §4.2, with the CPU solver's
-/// model step, momentum and backtracking line search).
+/// Settings of the device pipeline: its smoother, coarse solve and instrumentation. The cycle's own settings
+/// (matrix update policy, momentum, line search) are solvers::FmgCycleParams: the cycle is solvers::FmgCycle, the
+/// same one the CPU solver runs, and this pipeline is its device backend.
 struct FmgSettings {
   int pre_smooth = 3, post_smooth = 3;
   bool chebyshev = true;        ///< Chebyshev-accelerated symmetric Gauss-Seidel smoothing
-  int matrix_update = 1;        ///< 0 every direction, 1 every cycle, 2 once per step (solvers::MatrixUpdate order)
-  double armijo = 1e-4, shrink = 0.5;
-  int max_line_search_steps = 30;
-  bool momentum = true;
   double adaptive_threshold = 0.0;  ///< adaptive smoothing inside the V-cycles (§4.3), 0 = off
   /// The coarsest level's solve: "device" (dense Cholesky on the device: cuSOLVER on the CUDA backend) or "host"
   /// (CHOLMOD on the CPU, the coarse vectors copied each way); "auto" is "device".
@@ -36,49 +32,56 @@ struct FmgSettings {
   bool compare_spgemm = false;
 };
 
-struct Limits {
-  double rel_grad = 1e-6, abs_grad = 0.0;
-  int max_iters = 100;
-  double max_seconds = 1e300;
-  bool interruptible = false;
-};
-
-struct Row {
-  int iteration = 0;
-  double energy = 0.0, grad_norm = 0.0, wall_ms = 0.0, step = 0.0;
-};
-
-struct Outcome {
-  int iterations = 0;
-  std::string status;
-  double energy = 0.0, grad_norm = 0.0, initial_grad_norm = 0.0, target = 0.0, wall_ms = 0.0;
-  std::vector<std::pair<std::string, double>> counters;
-  std::vector<Row> trace;
-};
-
-/// The nonlinear FMG of Wang 2018 §4.2 with every step of a solve on one device: element kernels, BSR assembly,
-/// Galerkin products, multi-color Gauss-Seidel, V-cycles, line search. Built for one objective and hierarchy and
-/// kept across time steps (only the step's prediction, pin targets and obstacle poses are uploaded per minimize()).
+/// The device half of the nonlinear FMG of Wang 2018 §4.2: the objective, the model matrix and the multigrid with
+/// every vector on one device (element kernels, BSR assembly, Galerkin products, multi-color Gauss-Seidel,
+/// V-cycles, contact projection). solvers::FmgCuda runs solvers::FmgCycle over it. Vectors are numbered
+/// 0..kVectors-1 (solvers::FmgBackend::Vec; vector 0 is the iterate), each of the objective's size, in the device's
+/// own numbering. Built for one objective and hierarchy and kept across time steps (only the step's prediction, pin
+/// targets and obstacle poses are uploaded per begin()).
 class DeviceFmg {
  public:
+  static constexpr int kVectors = 13;
   virtual ~DeviceFmg() = default;
-  /// Minimizes `objective` from x (updated). `project`: make iterates feasible against the contact term's
-  /// obstacles (the simulator's Problem::project). Throws InputError for an objective the pipeline cannot take and
-  /// SolveError when the solve diverges, with the CPU solver's messages.
-  virtual Outcome minimize(const physics::Objective& objective,
-                           const std::vector<const linalg::StencilTable*>& prolongations, bool project, VecX& x,
-                           const Limits& limits, bool trace) = 0;
-  /// The time step's end on the device, after minimize() on the same objective (what bodies::ClothBody::finish_step
-  /// does on the CPU): the solution projected out of the obstacles (§4.5), v = (x − x_old)/h, and the friction
-  /// filter against the obstacles at the step's end (hd::filter_velocity). x (the solution minimize() left on the
-  /// device) and v come back in the problem's numbering.
+  /// Starts a solve of `objective` from x (into vector 0): builds the device layout when the objective, the
+  /// hierarchy or the objective's Hessian pattern changed (true then), and uploads the step's data. Throws
+  /// InputError for an objective the pipeline cannot take.
+  virtual bool begin(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations,
+                     const VecX& x) = 0;
+  /// Vector v in the problem's numbering (3n, xyz interleaved).
+  virtual void download(int v, VecX& x) const = 0;
+
+  virtual double energy(int x) = 0;
+  virtual void gradient(int x, int g) = 0;
+  /// Moves vertices inside obstacles onto their surfaces (§4.5); the number moved.
+  virtual Index project(int x) = 0;
+  virtual double dot(int a, int b) = 0;
+  virtual void combine(int out, double a, int u, double b, int w) = 0;  ///< out = a·u + b·w
+  virtual void scale(int out, double a, int u) = 0;                     ///< out = a·u
+  virtual void weight(int out, double omega, int u, int prev) = 0;      ///< out = ω (u − prev) + prev
+  virtual void copy(int to, int from) = 0;
+  /// The PSD-projected Hessian at x into level 0 and its Galerkin hierarchy (smoothers, coarsest factorization).
+  virtual void update_matrix(int x) = 0;
+  virtual void multiply(int in, int out) = 0;  ///< out = A_0 in
+  /// d = one linear V-cycle of the Galerkin hierarchy from zero on r; returns d·r.
+  virtual double vcycle(int r, int d) = 0;
+  /// c from zero by V-cycles on A_0 c = r until ‖r − A_0 c‖ <= tol (at most 30).
+  virtual void newton_step(int r, int c, double tol) = 0;
+  virtual void synchronize() = 0;
+  /// What the pipeline measured since begin(): time per phase (setup, assembly, Galerkin, V-cycles), levels,
+  /// graph launches, the adaptive smoother's skipped fraction, and the profile's and SpGEMM comparison's counters.
+  virtual std::vector<std::pair<std::string, double>> counters() const = 0;
+
+  /// The time step's end on the device, after a solve of the same objective (what bodies::ClothBody::finish_step
+  /// does on the CPU): the solution (vector 0) projected out of the obstacles (§4.5), v = (x − x_old)/h, and the
+  /// friction filter against the obstacles at the step's end (hd::filter_velocity). x and v come back in the
+  /// problem's numbering.
   virtual void finish_step(const VecX& x_old, double h, VecX& x, VecX& v) = 0;
   /// "host" or the CUDA device's name.
   virtual std::string device() const = 0;
   /// The Chebyshev spectral radius of every level's sweep, finest first: estimated on the first matrix and kept for
   /// later solves, so a checkpoint holds them (empty before the first solve).
   virtual std::vector<double> smoother_radii() const = 0;
-  /// Gives smoother_radii() back before the next minimize(); empty: estimate them afresh.
+  /// Gives smoother_radii() back before the next solve; empty: estimate them afresh.
   virtual void restore_smoother_radii(std::vector<double> radii) = 0;
 };
 

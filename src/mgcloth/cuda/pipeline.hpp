@@ -4,8 +4,6 @@
 // B::sum(n, f) reduces, B::Buffer<T> holds device memory. Kernels are MGCLOTH_HOST_DEVICE lambdas that capture raw
 // pointers by value, never `this` (a host pointer on the device). Every vector is xyz-interleaved in the level's
 // device numbering (layout.hpp), every matrix a BSR of row-major 3x3 blocks.
-#include <mgcloth/core/backtracking.hpp>
-#include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/timer.hpp>
 #include <mgcloth/cuda/device_fmg.hpp>
 #include <mgcloth/cuda/errors.hpp>
@@ -114,8 +112,8 @@ class Pipeline final : public DeviceFmg {
     m_pin_k.upload(O.pin_k);
     m_contact_k.upload(O.contact_k);
     const size_t n3 = 3 * static_cast<size_t>(m_n);
-    for (auto* v : {&m_x, &m_g, &m_r, &m_d, &m_Ad, &m_p, &m_Ap, &m_s_vec, &m_As, &m_trial, &m_g_trial, &m_y})
-      v->resize(n3);
+    for (auto& v : m_vec) v.resize(n3);
+    for (auto* v : {&m_y, &m_step_start, &m_velocity}) v->resize(n3);
     const Level& C = m_levels.back();
     m_coarse_dense_n = 3 * C.n;
     if (m_s.coarse_solve == "device") {
@@ -124,7 +122,6 @@ class Pipeline final : public DeviceFmg {
     } else {
       m_coarse_host = m_layout.levels.back().pattern;
     }
-    m_beta = 1.0;
     m_vcycle_graph.reset();
     m_spgemm = SpgemmComparison{};
   }
@@ -314,7 +311,7 @@ class Pipeline final : public DeviceFmg {
     }
   }
 
-  double energy(const double* x) const {
+  double energy_at(const double* x) const {
     const PointTerms P = point_terms();
     const ObjectiveLayout& O = m_layout.objective;
     return B::sum(m_n, MGCLOTH_LAMBDA(Index i) { return point_element(P, i, x + 3 * i, nullptr, nullptr); }) +
@@ -322,7 +319,7 @@ class Pipeline final : public DeviceFmg {
            isometric_energy(x);
   }
 
-  void gradient(const double* x, double* g) const {
+  void gradient_at(const double* x, double* g) const {
     const PointTerms P = point_terms();
     B::for_each(m_n, MGCLOTH_LAMBDA(Index i) {
       double gi[3] = {0.0, 0.0, 0.0};
@@ -350,7 +347,7 @@ class Pipeline final : public DeviceFmg {
   }
 
   /// Moves vertices inside obstacles onto their surfaces (§4.5); returns how many moved.
-  Index project(double* x) const {
+  Index project_at(double* x) const {
     if (m_num_obstacles == 0) return 0;
     const hd::ObstacleData* obs = m_obstacles.data();
     const int no = static_cast<int>(m_num_obstacles);
@@ -365,11 +362,11 @@ class Pipeline final : public DeviceFmg {
     {
       std::vector<double> xd;
       to_device_order(m_layout, x_old, xd);
-      m_trial.upload(xd);  // free between solves
+      m_step_start.upload(xd);
     }
     const PointTerms P = point_terms();
-    double *x = m_x.data(), *v = m_g_trial.data();
-    const double* x0 = m_trial.data();
+    double *x = m_vec[0].data(), *v = m_velocity.data();
+    const double* x0 = m_step_start.data();
     const int no = static_cast<int>(m_num_obstacles);
     // One pass per vertex: projection, velocity, then each obstacle's friction filter, as on the CPU
     // (physics::project_out_of_obstacles, physics::apply_friction) with the cubic penalty's normal force.
@@ -390,9 +387,9 @@ class Pipeline final : public DeviceFmg {
       }
     });
     std::vector<double> buf;
-    m_x.download(buf);
+    m_vec[0].download(buf);
     from_device_order(m_layout, buf, x_host);
-    m_g_trial.download(buf);
+    m_velocity.download(buf);
     from_device_order(m_layout, buf, v_host);
   }
 
@@ -716,12 +713,158 @@ class Pipeline final : public DeviceFmg {
     double smoothing = 0.0, coarse = 0.0, transfer = 0.0, smoother_bytes = 0.0;
   };
 
-  // ---- The nonlinear FMG (Wang 2018 §4.2, solvers::NonlinearFMG with its default schedule) ---------------------
+  // ---- The backend of solvers::FmgCycle (the cycle itself is the CPU solver's) ---------------------------------
 
-  Outcome minimize(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations,
-                   bool do_project, VecX& x_host, const Limits& stop, bool want_trace) override;
+  bool begin(const physics::Objective& objective, const std::vector<const linalg::StencilTable*>& prolongations,
+             const VecX& x_host) override {
+    m_ms = Phases{};
+    // The device layout (colorings, Galerkin maps, scatter slots) follows the objective's pattern: rebuilt when the
+    // terms' stencils changed it. (Within a solve the device assembles with the stencils of the solve's start.)
+    objective.update_stencils(x_host);
+    bool rebuilt = false;
+    if (m_objective != &objective || m_prolongations != prolongations || m_pattern_version != objective.pattern_version()) {
+      Timer t;
+      build(objective, prolongations);
+      m_ms.setup = t.ms();
+      rebuilt = true;
+    }
+    if (!m_restore_radii.empty()) {
+      if (m_restore_radii.size() != m_levels.size())
+        fail_input("fmg-cuda: a solver state for " + std::to_string(m_restore_radii.size()) +
+                   " levels, the hierarchy has " + std::to_string(m_levels.size()));
+      for (size_t l = 0; l < m_levels.size(); ++l) m_levels[l].rho = m_restore_radii[l];
+      m_restore_radii.clear();
+    }
+    if (x_host.size() != 3 * m_n)
+      fail("fmg-cuda: the start point has " + std::to_string(x_host.size()) + " entries, the objective " +
+           std::to_string(3 * m_n) + " dofs");
+    upload_step(objective);
+    m_rows_active = m_rows_total = 0.0;
+    m_prof = Profile{};
+    m_graph_launches = 0;
+    std::vector<double> xd;
+    to_device_order(m_layout, x_host, xd);
+    m_vec[0].upload(xd);
+    return rebuilt;
+  }
+  void download(int v, VecX& x) const override {
+    std::vector<double> xd;
+    m_vec[slot(v)].download(xd);
+    from_device_order(m_layout, xd, x);
+  }
+
+  double energy(int v) override { return energy_at(vec(v)); }
+  void gradient(int v, int g) override { gradient_at(vec(v), vec(g)); }
+  Index project(int v) override { return project_at(vec(v)); }
+  double dot(int a, int b) override { return dot(vec(a), vec(b), 3 * m_n); }
+  void combine(int out, double a, int u, double b, int w) override {
+    double *o = vec(out), *x = vec(u), *y = vec(w);
+    B::for_each(3 * m_n, MGCLOTH_LAMBDA(Index i) { o[i] = a * x[i] + b * y[i]; });
+  }
+  void scale(int out, double a, int u) override {
+    double *o = vec(out), *x = vec(u);
+    B::for_each(3 * m_n, MGCLOTH_LAMBDA(Index i) { o[i] = a * x[i]; });
+  }
+  void weight(int out, double omega, int u, int prev) override {
+    double *o = vec(out), *x = vec(u), *q = vec(prev);
+    B::for_each(3 * m_n, MGCLOTH_LAMBDA(Index i) { o[i] = omega * (x[i] - q[i]) + q[i]; });
+  }
+  void copy(int to, int from) override { copy(vec(from), vec(to), 3 * m_n); }
+  void update_matrix(int v) override {
+    timed(m_ms.assembly, [&] { hessian(vec(v)); });
+    timed(m_ms.galerkin, [&] { update_hierarchy(); });
+    if (m_s.compare_spgemm && !m_spgemm.done) compare_spgemm();
+  }
+  void multiply(int in, int out) override { multiply(m_levels[0], vec(in), vec(out)); }
+  double vcycle(int rv, int dv) override {
+    const Index n3 = 3 * m_n;
+    Level& top = m_levels[0];
+    double *r = vec(rv), *d = vec(dv);
+    // Graphs hold only device work: not with the host coarse solve (copies), the adaptive mask (reductions) or the
+    // profile's synchronizations.
+    const bool use_graphs = m_s.graphs && m_s.coarse_solve == "device" && !(m_s.adaptive_threshold > 0.0) && !m_s.profile;
+    timed(m_ms.linear, [&] {
+      const auto run = [&] {
+        copy(r, top.b.data(), n3);
+        fill(top.x.data(), 0.0, n3);
+        cycle(0, true);
+        copy(top.x.data(), d, n3);
+      };
+      // The V-cycle is the same sequence of launches on the same buffers every time (2 × colors per sweep on every
+      // level): captured once as a graph and replayed, it costs one launch. Its kernels read the matrices, not
+      // copies of them, so a new matrix needs no new graph; other vectors do.
+      if (use_graphs) {
+        if (m_graph_vectors != std::make_pair(rv, dv)) {
+          m_vcycle_graph.reset();
+          m_graph_vectors = {rv, dv};
+        }
+        if (!m_vcycle_graph.ready() && !m_vcycle_graph.failed) B::capture(m_vcycle_graph, run);
+        if (m_vcycle_graph.ready()) {
+          B::launch(m_vcycle_graph);
+          ++m_graph_launches;
+          return;
+        }
+      }
+      run();
+    });
+    return dot(d, r, n3);
+  }
+  void newton_step(int rv, int cv, double tol) override {
+    const Index n3 = 3 * m_n;
+    Level& top = m_levels[0];
+    timed(m_ms.linear, [&] {
+      copy(vec(rv), top.b.data(), n3);
+      fill(top.x.data(), 0.0, n3);
+      for (int it = 0; it < 30; ++it) {
+        cycle(0, it == 0);
+        residual(top, top.b.data(), top.x.data(), top.r.data());
+        if (std::sqrt(dot(top.r.data(), top.r.data(), n3)) <= tol) break;
+      }
+      copy(top.x.data(), vec(cv), n3);
+    });
+  }
+  void synchronize() override { B::synchronize(); }
+  std::vector<std::pair<std::string, double>> counters() const override {
+    const double relax = m_rows_total > 0.0 ? 1.0 - m_rows_active / m_rows_total : 0.0;
+    std::vector<std::pair<std::string, double>> out{{"skipped_fraction", relax},
+                                                    {"setup_ms", m_ms.setup},
+                                                    {"assembly_ms", m_ms.assembly},
+                                                    {"galerkin_ms", m_ms.galerkin},
+                                                    {"linear_ms", m_ms.linear},
+                                                    {"levels", static_cast<double>(m_levels.size())},
+                                                    {"graph_launches", static_cast<double>(m_graph_launches)}};
+    if (m_spgemm.available) {
+      out.push_back({"spgemm_gather_ms", m_spgemm.gather_ms});
+      out.push_back({"spgemm_reference_ms", m_spgemm.reference_ms});
+      out.push_back({"spgemm_max_rel_diff", m_spgemm.max_rel_diff});
+    }
+    if (m_s.profile) {
+      out.push_back({"smoothing_ms", m_prof.smoothing});
+      out.push_back({"coarse_ms", m_prof.coarse});
+      out.push_back({"transfer_ms", m_prof.transfer});
+      out.push_back({"smoother_gbytes", m_prof.smoother_bytes * 1e-9});
+      out.push_back({"smoother_gb_per_s", m_prof.smoothing > 0.0 ? m_prof.smoother_bytes * 1e-6 / m_prof.smoothing : 0.0});
+    }
+    return out;
+  }
 
  private:
+  static size_t slot(int v) {
+    if (v < 0 || v >= kVectors) fail("fmg-cuda: no vector " + std::to_string(v));
+    return static_cast<size_t>(v);
+  }
+  double* vec(int v) { return m_vec[slot(v)].data(); }
+  template <class F>
+  void timed(double& ms, F&& f) {
+    Timer t;
+    f();
+    B::synchronize();
+    ms += t.ms();
+  }
+  struct Phases {
+    double setup = 0, assembly = 0, galerkin = 0, linear = 0;
+  };
+
   FmgSettings m_s;
   Layout m_layout;
   const physics::Objective* m_objective = nullptr;
@@ -736,419 +879,21 @@ class Pipeline final : public DeviceFmg {
   Buf<hd::ObstacleData> m_obstacles;
   Index m_num_obstacles = 0;
   double m_inv_h2 = 0.0;
-  Buf<double> m_x, m_g, m_r, m_d, m_Ad, m_p, m_Ap, m_s_vec, m_As, m_trial, m_g_trial;
+  Buf<double> m_vec[kVectors];
+  Buf<double> m_step_start, m_velocity;  ///< finish_step's x_old and v
   Index m_coarse_dense_n = 0;
   Buf<double> m_dense;
   std::unique_ptr<typename B::DenseCholesky> m_cholesky;
   linalg::BlockMatrix3 m_coarse_host;
   linalg::CholmodSolver m_coarse_solver;
   double m_rows_active = 0.0, m_rows_total = 0.0;
-  double m_beta = 1.0;  ///< accepted step / model step of the last direction, to start the next line search (§4.2.3)
-  std::vector<double> m_restore_radii;  ///< restore_smoother_radii() for the next minimize(), after build()
+  std::vector<double> m_restore_radii;  ///< restore_smoother_radii() for the next solve, after build()
+  Phases m_ms;
+  long m_graph_launches = 0;
   Profile m_prof;
   SpgemmComparison m_spgemm;
   typename B::Graph m_vcycle_graph;
+  std::pair<int, int> m_graph_vectors{-1, -1};  ///< the residual and correction vectors the graph was captured for
 };
-
-template <class B>
-Outcome Pipeline<B>::minimize(const physics::Objective& objective,
-                              const std::vector<const linalg::StencilTable*>& prolongations, bool do_project,
-                              VecX& x_host, const Limits& stop, bool want_trace) {
-  Timer timer;
-  struct Phases {
-    double setup = 0, assembly = 0, galerkin = 0, linear = 0, line_search = 0, gradient = 0, model = 0;
-  } ms;
-  // The device layout (colorings, Galerkin maps, scatter slots) follows the objective's pattern: rebuilt when the
-  // terms' stencils changed it. (Within a solve the device assembles with the stencils of the solve's start.)
-  objective.update_stencils(x_host);
-  if (m_objective != &objective || m_prolongations != prolongations || m_pattern_version != objective.pattern_version()) {
-    Timer t;
-    build(objective, prolongations);
-    ms.setup = t.ms();
-  }
-  if (!m_restore_radii.empty()) {
-    if (m_restore_radii.size() != m_levels.size())
-      fail_input("fmg-cuda: a solver state for " + std::to_string(m_restore_radii.size()) + " levels, the hierarchy has " +
-                 std::to_string(m_levels.size()));
-    for (size_t l = 0; l < m_levels.size(); ++l) m_levels[l].rho = m_restore_radii[l];
-    m_restore_radii.clear();
-  }
-  if (x_host.size() != 3 * m_n)
-    fail("fmg-cuda: the start point has " + std::to_string(x_host.size()) + " entries, the objective " +
-         std::to_string(3 * m_n) + " dofs");
-  upload_step(objective);
-  m_rows_active = m_rows_total = 0.0;
-  m_prof = Profile{};
-  const Index n3 = 3 * m_n;
-  {
-    std::vector<double> xd;
-    to_device_order(m_layout, x_host, xd);
-    m_x.upload(xd);
-  }
-  double *x = m_x.data(), *g = m_g.data(), *r = m_r.data(), *d = m_d.data(), *Ad = m_Ad.data(), *p = m_p.data(),
-         *Ap = m_Ap.data(), *sv = m_s_vec.data(), *As = m_As.data(), *trial = m_trial.data(),
-         *g_trial = m_g_trial.data();
-  Level& top = m_levels[0];
-  long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, graph_launches = 0, fallbacks = 0;
-  // Graphs hold only device work: not with the host coarse solve (copies), the adaptive mask (reductions) or the
-  // profile's synchronizations.
-  const bool use_graphs = m_s.graphs && m_s.coarse_solve == "device" && !(m_s.adaptive_threshold > 0.0) && !m_s.profile;
-  const auto timed = [&](double& slot, auto&& f) {
-    Timer t;
-    f();
-    B::synchronize();
-    slot += t.ms();
-  };
-  const auto evaluate = [&](const double* y) {
-    double v = 0.0;
-    timed(ms.line_search, [&] { v = energy(y); });
-    ++energy_evals;
-    return v;
-  };
-  double e = energy(x);
-  double gnorm = 0.0;
-  const auto refresh_gradient = [&] {
-    timed(ms.gradient, [&] {
-      gradient(x, g);
-      B::for_each(n3, MGCLOTH_LAMBDA(Index i) { r[i] = -g[i]; });
-      gnorm = std::sqrt(dot(g, g, n3));
-    });
-  };
-  refresh_gradient();
-  Outcome out;
-  const auto check = [&](int iteration) {
-    if (!std::isfinite(e) || !std::isfinite(gnorm))
-      fail_solve("fmg-cuda: the solve diverged at iteration " + std::to_string(iteration) + " (energy " + sci(e) +
-                 ", |g| " + sci(gnorm) + ")");
-  };
-  check(0);
-  out.initial_grad_norm = gnorm;
-  const double target = std::max(stop.abs_grad, stop.rel_grad * gnorm);
-  out.target = target;
-  if (want_trace) out.trace.push_back({0, e, gnorm, timer.ms(), 0.0});
-
-  bool have_s = false, as_stale = false;
-  const auto update_matrix = [&] {
-    timed(ms.assembly, [&] { hessian(x); });
-    timed(ms.galerkin, [&] { update_hierarchy(); });
-    if (m_s.compare_spgemm && !m_spgemm.done) compare_spgemm();
-    as_stale = true;
-    m_beta = 1.0;  // a fresh model is trusted again
-    ++matrix_updates;
-  };
-  // After x changed: projection, then the new residual (and the energy when the projection moved x).
-  const auto refresh = [&](bool energy_known, double e_new) {
-    const Index moved = do_project ? project(x) : 0;
-    e = energy_known && moved == 0 ? e_new : evaluate(x);
-    refresh_gradient();
-  };
-  double last_alpha = 0.0;
-  const auto direction = [&]() -> bool {
-    ++directions;
-    // One linear V-cycle of the Galerkin hierarchy from c = 0 on the residual (Theorem 4.2: an SPD operator, so
-    // c·r > 0 and c is a descent direction).
-    timed(ms.linear, [&] {
-      const auto vcycle = [&] {
-        copy(r, top.b.data(), n3);
-        fill(top.x.data(), 0.0, n3);
-        cycle(0, true);
-        copy(top.x.data(), d, n3);
-      };
-      // The V-cycle is the same sequence of launches on the same buffers every time (2 × colors per sweep on every
-      // level): captured once as a graph and replayed, it costs one launch. Its kernels read the matrices, not
-      // copies of them, so a new matrix needs no new graph.
-      if (use_graphs) {
-        if (!m_vcycle_graph.ready() && !m_vcycle_graph.failed) B::capture(m_vcycle_graph, vcycle);
-        if (m_vcycle_graph.ready()) {
-          B::launch(m_vcycle_graph);
-          ++graph_launches;
-          return;
-        }
-      }
-      vcycle();
-    });
-    const double cr = dot(d, r, n3);
-    if (!(cr > 0.0)) {
-      ++rejected;
-      return false;
-    }
-    const double slope = -cr;
-    double dAd = 0.0;
-    timed(ms.model, [&] {
-      multiply(top, d, Ad);
-      dAd = dot(d, Ad, n3);
-    });
-    const double model_alpha = dAd > 0.0 ? cr / dAd : 1.0;
-    double p_slope = model_alpha * slope;
-    B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
-      p[i] = model_alpha * d[i];
-      Ap[i] = model_alpha * Ad[i];
-    });
-    if (m_s.momentum && have_s) {
-      // The model minimized over span{d, s} (s the previous step), as in solvers::NonlinearFMG.
-      timed(ms.model, [&] {
-        if (as_stale) {
-          multiply(top, sv, As);
-          as_stale = false;
-        }
-        const double sAs = dot(sv, As, n3), dAs = dot(d, As, n3), sr = dot(sv, r, n3);
-        const double det = dAd * sAs - dAs * dAs;
-        if (dAd > 0.0 && sAs > 0.0 && det > 1e-10 * dAd * sAs) {
-          const double a = (cr * sAs - sr * dAs) / det, b = (dAd * sr - dAs * cr) / det;
-          B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
-            p[i] = a * d[i] + b * sv[i];
-            Ap[i] = a * Ad[i] + b * As[i];
-          });
-          p_slope = -(a * cr + b * sr);
-        }
-      });
-    }
-    // Where the predicted decrease is below the energy's round-off, the gradient norm decides.
-    const auto accept_by_gradient = [&]() -> bool {
-      add_scaled(x, 1.0, p, trial, n3);
-      double gt = 0.0;
-      timed(ms.gradient, [&] {
-        gradient(trial, g_trial);
-        gt = std::sqrt(dot(g_trial, g_trial, n3));
-      });
-      if (!(gt < gnorm)) return false;
-      copy(p, sv, n3);
-      copy(Ap, As, n3);
-      have_s = true;
-      copy(trial, x, n3);
-      last_alpha = 1.0;
-      refresh(false, 0.0);
-      return true;
-    };
-    const bool in_round_off = -p_slope < 1e-13 * std::max(1.0, std::abs(e));
-    if (in_round_off) {
-      if (accept_by_gradient()) return true;
-      ++rejected;
-      return false;
-    }
-    // Backtracking from the model step scaled by what was needed last time (§4.2.3), with safeguarded quadratic
-    // interpolation; trial points are made feasible first (§4.5).
-    double alpha = m_beta, et = 0.0;
-    bool ok = false;
-    int tries = 0;
-    for (; tries < m_s.max_line_search_steps; ++tries) {
-      add_scaled(x, alpha, p, trial, n3);
-      if (do_project) project(trial);
-      et = evaluate(trial);
-      if (std::isfinite(et) && et <= e + m_s.armijo * alpha * p_slope) {
-        ok = true;
-        break;
-      }
-      alpha = backtracking_step(alpha, et, e, p_slope, m_s.shrink);
-    }
-    if (!ok) {
-      m_beta = std::max(1e-3, 0.5 * m_beta);
-      if (-p_slope < 1e-9 * std::max(1.0, std::abs(e)) && accept_by_gradient()) return true;
-      ++rejected;
-      return false;
-    }
-    m_beta = std::min(1.0, tries == 0 ? 2.0 * alpha : alpha);
-    const double a = alpha;
-    B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
-      sv[i] = a * p[i];
-      As[i] = a * Ap[i];
-      x[i] = trial[i];
-    });
-    have_s = true;
-    last_alpha = alpha;
-    refresh(true, et);
-    return true;
-  };
-
-  // solvers::steepest_descent_fallback on the device: along r = −g from the step that minimizes the model along it
-  // (a secant guess from the gradient at a small probe where the model has no curvature there), backtracking; the
-  // accepted point is projected as after any step.
-  const auto steepest_descent = [&]() -> bool {
-    const double gg = dot(g, g, n3);
-    if (!(gg > 0.0)) return false;
-    double alpha = 0.0;
-    multiply(top, r, Ad);
-    const double dAd = dot(r, Ad, n3);
-    if (dAd > 0.0) alpha = gg / dAd;
-    if (!(alpha > 0.0)) {
-      const double probe = 1e-6 / std::sqrt(gg);
-      add_scaled(x, probe, r, trial, n3);
-      timed(ms.gradient, [&] { gradient(trial, g_trial); });
-      const double curvature = B::sum(n3, MGCLOTH_LAMBDA(Index i) { return (g_trial[i] - g[i]) * r[i]; }) / probe;
-      alpha = curvature > 0.0 ? gg / curvature : probe;
-    }
-    for (int tries = 0; tries < 60; ++tries, alpha *= 0.5) {
-      add_scaled(x, alpha, r, trial, n3);
-      const double et = evaluate(trial);
-      if (std::isfinite(et) && et <= e - 1e-4 * alpha * gg) {
-        if (!(et < e)) return false;
-        copy(trial, x, n3);
-        refresh(true, et);
-        return std::isfinite(gnorm);
-      }
-    }
-    return false;
-  };
-
-  out.status = "max_iters";
-  int k = 0;
-  bool done = false, force_update = false;
-  const bool per_solve = m_s.matrix_update == 2;
-  for (; k < stop.max_iters && !done; ++k) {
-    if (gnorm <= target) {
-      out.status = "converged";
-      break;
-    }
-    if (timer.seconds() > stop.max_seconds) {
-      out.status = "time_limit";
-      break;
-    }
-    if (stop.interruptible && interrupted()) {
-      out.status = "interrupted";
-      break;
-    }
-    if (!per_solve || k == 0 || force_update) update_matrix();
-    const bool fresh_matrix = !per_solve || k == 0 || force_update;
-    force_update = false;
-    const bool moved = direction();
-    check(k + 1);
-    if (gnorm <= target) {
-      out.status = "converged";
-      done = true;
-    } else if (timer.seconds() > stop.max_seconds) {
-      out.status = "time_limit";
-      done = true;
-    } else if (stop.interruptible && interrupted()) {
-      out.status = "interrupted";
-      done = true;
-    }
-    if (want_trace) out.trace.push_back({k + 1, e, gnorm, timer.ms(), last_alpha});
-    if (!moved && !done) {
-      // No direction decreased the energy (as in solvers::NonlinearFMG): a matrix too stale to help (retry with a
-      // fresh one), the limiting accuracy (round-off), or a model that misleads (steepest descent, then the model's
-      // Newton step).
-      if (!fresh_matrix) {
-        force_update = true;
-        continue;
-      }
-      // The floor is measured on the host objective at x: a few gradients, paid only by a solve that is stuck.
-      VecX x_now;
-      {
-        std::vector<double> xd;
-        m_x.download(xd);
-        from_device_order(m_layout, xd, x_now);
-      }
-      double floor = 0.0;
-      if (physics::at_roundoff_floor(objective, x_now, gnorm, &floor)) {
-        out.status = "stagnated";
-        ++k;
-        break;
-      }
-      if (steepest_descent()) {
-        have_s = false;
-        m_beta = 1.0;
-        ++fallbacks;
-        force_update = true;
-        check(k + 1);
-        continue;
-      }
-      // The Newton step of the model, solved by V-cycles to a residual of 1e-3. Where even its predicted decrease is
-      // below the round-off of the energy sum, the energy cannot tell better from worse: the step is judged by the
-      // gradient norm, and if that fails too the solve has stagnated.
-      {
-        double* c = top.x.data();
-        timed(ms.linear, [&] {
-          copy(r, top.b.data(), n3);
-          fill(c, 0.0, n3);
-          for (int it = 0; it < 30; ++it) {
-            cycle(0, it == 0);
-            residual(top, r, c, d);
-            if (std::sqrt(dot(d, d, n3)) <= 1e-3 * gnorm) break;
-          }
-        });
-        const double predicted = 0.5 * dot(c, r, n3);
-        double magnitude = 0.0;
-        for (const auto& [name, value] : objective.term_values(x_now)) magnitude += std::abs(value);
-        const bool below_noise = !(predicted > 1e-13 * magnitude);
-        add_scaled(x, 1.0, c, trial, n3);
-        if (do_project) project(trial);
-        const double et = evaluate(trial);
-        double gt = 0.0;
-        timed(ms.gradient, [&] {
-          gradient(trial, g_trial);
-          gt = std::sqrt(dot(g_trial, g_trial, n3));
-        });
-        if (std::isfinite(et) && (et < e || (below_noise && gt < gnorm))) {
-          B::for_each(n3, MGCLOTH_LAMBDA(Index i) {
-            x[i] = trial[i];
-            g[i] = g_trial[i];
-            r[i] = -g_trial[i];
-          });
-          e = et;
-          gnorm = gt;
-          have_s = false;
-          ++fallbacks;
-          force_update = true;
-          check(k + 1);
-          continue;
-        }
-        if (below_noise) {
-          out.status = "stagnated";
-          ++k;
-          break;
-        }
-      }
-      if (gnorm <= 1e-3 * out.initial_grad_norm) {
-        out.status = "stalled";
-        ++k;
-        break;
-      }
-      fail_solve("fmg-cuda: no search direction decreased the energy in cycle " + std::to_string(k + 1) + " (|g| = " +
-                 sci(gnorm) + ", relative " + sci(gnorm / out.initial_grad_norm) + ", " +
-                 (floor > 0.0 ? sci(gnorm / floor, 1) : std::string("?")) +
-                 "x the gradient's round-off floor); tried: a fresh Hessian, the V-cycle's correction, a "
-                 "steepest-descent step, the model's Newton step");
-    }
-  }
-  {
-    std::vector<double> xd;
-    m_x.download(xd);
-    from_device_order(m_layout, xd, x_host);
-  }
-  out.iterations = k;
-  out.energy = e;
-  out.grad_norm = gnorm;
-  if (gnorm <= target) out.status = "converged";
-  out.wall_ms = timer.ms();
-  const double relax = m_rows_total > 0.0 ? 1.0 - m_rows_active / m_rows_total : 0.0;
-  out.counters = {{"directions", static_cast<double>(directions)},
-                  {"rejected_directions", static_cast<double>(rejected)},
-                  {"energy_evals", static_cast<double>(energy_evals)},
-                  {"matrix_updates", static_cast<double>(matrix_updates)},
-                  {"fallbacks", static_cast<double>(fallbacks)},
-                  {"skipped_fraction", relax},
-                  {"setup_ms", ms.setup},
-                  {"assembly_ms", ms.assembly},
-                  {"galerkin_ms", ms.galerkin},
-                  {"linear_ms", ms.linear},
-                  {"line_search_ms", ms.line_search},
-                  {"gradient_ms", ms.gradient},
-                  {"model_ms", ms.model},
-                  {"levels", static_cast<double>(m_levels.size())},
-                  {"graph_launches", static_cast<double>(graph_launches)}};
-  if (m_spgemm.available) {
-    out.counters.push_back({"spgemm_gather_ms", m_spgemm.gather_ms});
-    out.counters.push_back({"spgemm_reference_ms", m_spgemm.reference_ms});
-    out.counters.push_back({"spgemm_max_rel_diff", m_spgemm.max_rel_diff});
-  }
-  if (m_s.profile) {
-    out.counters.push_back({"smoothing_ms", m_prof.smoothing});
-    out.counters.push_back({"coarse_ms", m_prof.coarse});
-    out.counters.push_back({"transfer_ms", m_prof.transfer});
-    out.counters.push_back({"smoother_gbytes", m_prof.smoother_bytes * 1e-9});
-    out.counters.push_back({"smoother_gb_per_s", m_prof.smoothing > 0.0 ? m_prof.smoother_bytes * 1e-6 / m_prof.smoothing : 0.0});
-  }
-  return out;
-}
 
 }  // namespace mgcloth::cuda

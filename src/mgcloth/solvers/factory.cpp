@@ -102,6 +102,7 @@ Json write_fmg(const FmgParams& p) {
 /// fmg-cuda: the settings the device pipeline implements, and which backend runs it.
 struct FmgCudaConfig {
   cuda::FmgSettings s;
+  FmgCycleParams cycle = FmgCuda::device_cycle();
   std::string backend = "cuda";
 };
 FmgCudaConfig read_fmg_cuda(JsonReader& r) {
@@ -110,14 +111,13 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
   p.pre_smooth = r.integer("pre_smooth", p.pre_smooth, 0, 100);
   p.post_smooth = r.integer("post_smooth", p.post_smooth, 0, 100);
   p.chebyshev = r.boolean("chebyshev_smoothing", p.chebyshev);
-  const std::vector<std::string> updates{"direction", "cycle", "step"};
-  const std::string u = r.choice("matrix_update", updates[static_cast<size_t>(p.matrix_update)], updates);
-  p.matrix_update = static_cast<int>(std::find(updates.begin(), updates.end(), u) - updates.begin());
+  FmgCycleParams& q = c.cycle;
+  q.matrix_update = matrix_update_from_string(r.choice("matrix_update", to_string(q.matrix_update), {"direction", "cycle", "step"}));
   p.adaptive_threshold = r.number("adaptive_threshold", p.adaptive_threshold, 0.0, 100.0);
-  p.momentum = r.boolean("momentum", p.momentum);
-  p.armijo = r.number("armijo", p.armijo, 1e-12, 0.5);
-  p.shrink = r.number("backtrack", p.shrink, 0.01, 0.99);
-  p.max_line_search_steps = r.integer("max_line_search_steps", p.max_line_search_steps, 1, 200);
+  q.momentum = r.boolean("momentum", q.momentum);
+  q.line_search_params.armijo = r.number("armijo", q.line_search_params.armijo, 1e-12, 0.5);
+  q.line_search_params.shrink = r.number("backtrack", q.line_search_params.shrink, 0.01, 0.99);
+  q.line_search_params.max_steps = r.integer("max_line_search_steps", q.line_search_params.max_steps, 1, 200);
   p.coarse_solve = r.choice("coarse_solve", p.coarse_solve, {"auto", "device", "host"});
   c.backend = r.choice("backend", c.backend, {"cuda", "host"});
   p.profile = r.boolean("profile", p.profile);
@@ -127,16 +127,16 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
 }
 Json write_fmg_cuda(const FmgCudaConfig& c) {
   const cuda::FmgSettings& p = c.s;
-  const std::vector<std::string> updates{"direction", "cycle", "step"};
+  const FmgCycleParams& q = c.cycle;
   return {{"pre_smooth", p.pre_smooth},
           {"post_smooth", p.post_smooth},
           {"chebyshev_smoothing", p.chebyshev},
-          {"matrix_update", updates[static_cast<size_t>(p.matrix_update)]},
+          {"matrix_update", to_string(q.matrix_update)},
           {"adaptive_threshold", p.adaptive_threshold},
-          {"momentum", p.momentum},
-          {"armijo", p.armijo},
-          {"backtrack", p.shrink},
-          {"max_line_search_steps", p.max_line_search_steps},
+          {"momentum", q.momentum},
+          {"armijo", q.line_search_params.armijo},
+          {"backtrack", q.line_search_params.shrink},
+          {"max_line_search_steps", q.line_search_params.max_steps},
           {"coarse_solve", p.coarse_solve},
           {"backend", c.backend},
           {"profile", p.profile},
@@ -398,7 +398,7 @@ std::unique_ptr<NonlinearSolver> make_solver(const SolverConfig& c, const std::s
     case Kind::FmgCuda: {
       const FmgCudaConfig fc = read_fmg_cuda(r);
       r.finish();
-      return std::make_unique<FmgCuda>(fc.backend == "host" ? cuda::Backend::Host : cuda::Backend::Cuda, fc.s, c.name);
+      return std::make_unique<FmgCuda>(fc.backend == "host" ? cuda::Backend::Host : cuda::Backend::Cuda, fc.s, fc.cycle, c.name);
     }
     case Kind::Fas: s = std::make_unique<Fas>(read_fas(r, FasParams{})); break;
     case Kind::TrustRegion:

@@ -1,34 +1,56 @@
 #include <mgcloth/solvers/line_search.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace mgcloth::solvers {
 
-LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, const VecX& x, double e0,
-                              const VecX& d, double slope, double alpha0, const LineSearchParams& p, VecX& trial,
-                              double model_decrease) {
+namespace {
+double next_trial(double alpha, double trial_energy, double energy, double slope, const LineSearchParams& p) {
+  if (!p.interpolate || !std::isfinite(trial_energy)) return p.shrink * alpha;
+  const double curvature = trial_energy - energy - slope * alpha;
+  if (!(curvature > 0.0)) return p.shrink * alpha;
+  return std::clamp(-slope * alpha * alpha / (2.0 * curvature), 0.1 * alpha, 0.5 * alpha);
+}
+}  // namespace
+
+LineSearchResult backtrack(const std::function<double(double)>& energy_at, double e0, double slope, double alpha0,
+                           const LineSearchParams& p) {
   LineSearchResult r;
   double alpha = alpha0;
-  for (int k = 0; k < p.max_steps; ++k, alpha *= p.shrink) {
-    trial = x + alpha * d;
-    const double e = energy(trial);
-    // A non-finite trial energy (an inverted or exploded state) is treated as "too far", never accepted.
+  for (int k = 0; k < p.max_steps; ++k) {
+    const double e = energy_at(alpha);
+    r.trials = k + 1;
     if (std::isfinite(e) && e <= e0 + p.armijo * alpha * slope) {
       r.alpha = alpha;
       r.energy = e;
       r.success = true;
-      if (k == 0 && model_decrease > 0.0 && p.expand_ratio > 0.0 && e0 - e > p.expand_ratio * model_decrease * alpha) {
-        VecX longer;
-        for (double a = 2.0 * alpha; a <= p.max_alpha; a *= 2.0) {
-          longer = x + a * d;
-          const double el = energy(longer);
-          if (!(std::isfinite(el) && el < r.energy && el <= e0 + p.armijo * a * slope)) break;
-          r.alpha = a;
-          r.energy = el;
-          trial.swap(longer);
-        }
-      }
       return r;
+    }
+    alpha = next_trial(alpha, e, e0, slope, p);
+  }
+  return r;
+}
+
+LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, const VecX& x, double e0,
+                              const VecX& d, double slope, double alpha0, const LineSearchParams& p, VecX& trial,
+                              double model_decrease) {
+  LineSearchResult r = backtrack(
+      [&](double alpha) {
+        trial = x + alpha * d;
+        return energy(trial);
+      },
+      e0, slope, alpha0, p);
+  if (r.success && r.trials == 1 && model_decrease > 0.0 && p.expand_ratio > 0.0 &&
+      e0 - r.energy > p.expand_ratio * model_decrease * r.alpha) {
+    VecX longer;
+    for (double a = 2.0 * r.alpha; a <= p.max_alpha; a *= 2.0) {
+      longer = x + a * d;
+      const double el = energy(longer);
+      if (!(std::isfinite(el) && el < r.energy && el <= e0 + p.armijo * a * slope)) break;
+      r.alpha = a;
+      r.energy = el;
+      trial.swap(longer);
     }
   }
   return r;

@@ -1,5 +1,5 @@
 #pragma once
-#include <mgcloth/solvers/line_search.hpp>
+#include <mgcloth/solvers/fmg_cycle.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
@@ -8,18 +8,6 @@
 #include <optional>
 
 namespace mgcloth::solvers {
-
-/// When the system matrix A_0 (the PSD-projected Hessian, or the constant Projective Dynamics matrix) and its
-/// Galerkin hierarchy are recomputed (Wang 2018 §4.2.1, Fig. 6).
-enum class MatrixUpdate {
-  Direction,  ///< before every search direction (every level of every V-cycle)
-  Cycle,      ///< once per FMG cycle (the paper's choice)
-  Step,       ///< once per time step (per minimize call)
-  Constant,   ///< once; later steps reassemble it and refactor only if it changed (Projective Dynamics)
-};
-std::string to_string(MatrixUpdate u);
-MatrixUpdate matrix_update_from_string(const std::string& s);  ///< throws InputError
-std::vector<std::string> matrix_update_names();
 
 struct FmgParams {
   /// Symmetric Gauss-Seidel sweeps per smoothing (pre_smooth on the way down, post_smooth on the way up), Chebyshev
@@ -46,7 +34,7 @@ struct FmgParams {
   /// Backtracking line search on the true objective for every direction (§4.2.3); off for Projective Dynamics
   /// (§4.4), where the local step keeps the iteration stable.
   bool line_search = true;
-  LineSearchParams line_search_params;
+  LineSearchParams line_search_params{.interpolate = true};
   /// Adaptive smoother (§4.3): a smoothing skips the vertices whose restricted residual is below
   /// adaptive_threshold × the RMS residual of that level. 0 disables (exactly the plain smoother).
   double adaptive_threshold = 0.0;
@@ -60,6 +48,11 @@ struct FmgParams {
   bool momentum = true;
   bool project_psd = true;  ///< per-element PSD projection of the Hessian
   bool projective = false;  ///< a PD preset: minimizes the Projective Dynamics form only
+
+  /// The part of these settings that the cycle itself takes (the rest configures the CPU multigrid).
+  FmgCycleParams cycle() const {
+    return {matrix_update, refresh_below, line_search, line_search_params, chebyshev_rho, chebyshev_delay, momentum};
+  }
 };
 
 /// The nonlinear full multigrid of Wang et al. 2018 (§4.2, Fig. 5). Every smoothed correction on level h,
@@ -68,7 +61,8 @@ struct FmgParams {
 /// residual r_0 = −∇E recomputed before the next level's smoothing. A_h = I_0^hᵀ A_0 I_0^h are Galerkin operators of
 /// one finest-level matrix, updated per matrix_update. Small and large V-cycles are interleaved: each FMG cycle runs
 /// one V-cycle starting from every level, coarsest first (§4.2.1). Symmetric (Chebyshev-)Gauss-Seidel keeps every
-/// direction a descent direction (Theorems 4.1, 4.2). One iteration = one FMG cycle.
+/// direction a descent direction (Theorems 4.1, 4.2). One iteration = one FMG cycle. The cycle is FmgCycle, shared
+/// with the device pipeline ("fmg-cuda"); this class is its CPU backend: LinearMultigrid on BlockMatrix3.
 class NonlinearFMG final : public NonlinearSolver {
  public:
   explicit NonlinearFMG(FmgParams params = {}, std::string name = "fmg");
@@ -85,30 +79,19 @@ class NonlinearFMG final : public NonlinearSolver {
   std::string carried_state() const override;
   void restore_carried_state(std::string_view state) override;
 
-  /// What the last minimize() did and where its time went.
-  struct Stats {
-    int cycles = 0;
-    long directions = 0;         ///< search directions tried
-    long rejected = 0;           ///< directions the line search could not accept
-    long energy_evals = 0;       ///< line-search energy evaluations
-    long matrix_updates = 0;
-    long refreshes = 0;          ///< matrix updates within a cycle (refresh_below)
-    long fallbacks = 0;          ///< steepest-descent steps after a cycle in which no direction decreased the energy
+  /// What the last minimize() did (the cycle's counts) and where the multigrid's time went.
+  struct Stats : FmgCycle::Counts {
     double rows_relaxed = 0.0;   ///< block-row relaxations done by the smoothers of nonlinear levels
     double rows_skipped = 0.0;   ///< and skipped by the adaptive mask
-    double assembly_ms = 0.0, galerkin_ms = 0.0, smoothing_ms = 0.0, linear_ms = 0.0, transfer_ms = 0.0,
-           line_search_ms = 0.0, gradient_ms = 0.0, model_ms = 0.0;
+    double assembly_ms = 0.0, galerkin_ms = 0.0, smoothing_ms = 0.0, linear_ms = 0.0, transfer_ms = 0.0;
   };
   const Stats& stats() const { return m_stats; }
 
  private:
-  enum class Move { Smooth, Linear };
-  struct Stage {
-    Index level;
-    Move move;
-    int sweeps;
-  };
-  std::vector<Stage> schedule(Index levels) const;
+  class Backend;
+  std::vector<FmgStage> schedule(Index levels) const;
+  /// Sets up the multigrid for the problem's hierarchy (kept while it is the same) and applies a restored state.
+  void prepare(const Problem& problem);
 
   FmgParams m_params;
   std::string m_name;

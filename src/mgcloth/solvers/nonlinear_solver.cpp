@@ -1,6 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/interrupt.hpp>
-#include <mgcloth/solvers/line_search.hpp>
+#include <mgcloth/solvers/cpu_backend.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <algorithm>
@@ -70,35 +70,26 @@ bool update_constant_matrix(const physics::Objective& objective, const VecX& x, 
   return true;
 }
 
+namespace {
+/// The objective's vectors without a multigrid: what steepest_descent() needs.
+class PlainVectors final : public CpuVectors {
+ public:
+  using CpuVectors::CpuVectors;
+  bool update_matrix(Vec) override { return false; }
+  double correction(Index, bool, int, Vec, Vec) override { throw_error("no multigrid in this solve"); }
+  void newton_step(Vec, Vec, double) override { throw_error("no multigrid in this solve"); }
+  std::vector<std::pair<std::string, double>> counters() const override { return {}; }
+};
+}  // namespace
+
 bool steepest_descent_fallback(const physics::Objective& objective, const linalg::BlockMatrix3* A, VecX& x, double& e,
                                VecX& g, double& grad_norm) {
-  const VecX d = -g;
-  const double gg = g.squaredNorm();
-  if (!(gg > 0.0)) return false;
-  double alpha = 0.0;
-  if (A) {
-    VecX Ad;
-    A->multiply(d, Ad);
-    const double dAd = d.dot(Ad);
-    if (dAd > 0.0) alpha = gg / dAd;
-  }
-  if (!(alpha > 0.0)) {
-    // Secant curvature along −g from a probe a millionth of the gradient's length scale.
-    const double probe = 1e-6 / std::sqrt(gg);
-    VecX gp;
-    objective.gradient(x + probe * d, gp);
-    const double curvature = (gp - g).dot(d) / probe;
-    alpha = curvature > 0.0 ? gg / curvature : probe;
-  }
-  const auto energy = [&](const VecX& y) { return objective.value(y); };
-  LineSearchParams ls;
-  ls.max_steps = 60;
-  ls.expand_ratio = 0.0;
-  VecX trial;
-  const auto r = backtracking(energy, x, e, d, -gg, alpha, ls, trial);
-  if (!r.success || !(r.energy < e)) return false;
-  x.swap(trial);
-  e = r.energy;
+  PlainVectors v(objective, {}, A);
+  v[FmgBackend::X].swap(x);
+  v[FmgBackend::G] = g;
+  const bool ok = steepest_descent(v, A != nullptr, e);
+  x.swap(v[FmgBackend::X]);
+  if (!ok) return false;
   objective.gradient(x, g);
   grad_norm = g.norm();
   return std::isfinite(grad_norm);
