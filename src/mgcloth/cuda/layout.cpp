@@ -2,12 +2,7 @@
 #include <mgcloth/cuda/layout.hpp>
 #include <mgcloth/linalg/coloring.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
-#include <mgcloth/physics/sub_objective.hpp>
-#include <mgcloth/physics/attachment.hpp>
 #include <mgcloth/physics/bending.hpp>
-#include <mgcloth/physics/contact.hpp>
-#include <mgcloth/physics/inertia.hpp>
-#include <mgcloth/physics/membrane.hpp>
 
 namespace mgcloth::cuda {
 namespace {
@@ -39,14 +34,15 @@ linalg::BlockMatrix3 renumbered(const linalg::BlockMatrix3& A, const std::vector
   return linalg::BlockMatrix3(A.rows(), std::move(pairs));
 }
 
-template <int K, class Term>
-ElementGroup group_elements(const Term& term, const std::vector<Index>& inv, const linalg::BlockMatrix3& pattern) {
+template <int K>
+ElementGroup group_elements(const std::vector<std::array<Index, K>>& elements, const std::vector<Index>& inv,
+                            const linalg::BlockMatrix3& pattern) {
   ElementGroup g;
   g.arity = K;
-  const Index ne = term.num_elements();
+  const Index ne = static_cast<Index>(elements.size());
   std::vector<Index> flat(static_cast<size_t>(ne) * K);
   for (Index e = 0; e < ne; ++e)
-    for (int a = 0; a < K; ++a) flat[static_cast<size_t>(e) * K + a] = inv[static_cast<size_t>(term.elements()[e][a])];
+    for (int a = 0; a < K; ++a) flat[static_cast<size_t>(e) * K + a] = inv[static_cast<size_t>(elements[e][a])];
   // One element per chunk: each color is then a set of elements with pairwise disjoint vertices.
   const physics::ElementColors colors = physics::color_elements(flat, K, pattern.rows(), 1);
   g.color_offsets.assign(1, 0);
@@ -119,121 +115,102 @@ Layout build_layout(const physics::Objective& objective, const std::vector<const
   const LevelLayout& top = L.levels[0];
   O.n = top.n;
   const std::vector<Index> inv = inverse(top.perm);
-  const auto once = [](bool& seen, const std::string& name) {
-    if (seen) throw InputError(fmt::format("fmg-cuda: the objective has two \"{}\" terms; the device pipeline takes one", name));
-    seen = true;
-  };
-  bool inertia = false, gravity = false, membrane = false, bending = false, pins = false, contact = false;
-  for (const auto& term : objective.terms()) {
-    const physics::Term* t = term.get();
-    if (const auto* in = dynamic_cast<const physics::InertiaTerm*>(t)) {
-      once(inertia, t->name());
-      O.mass.resize(static_cast<size_t>(O.n));
-      for (Index r = 0; r < O.n; ++r) O.mass[static_cast<size_t>(r)] = in->mass()[top.perm[static_cast<size_t>(r)]];
-    } else if (const auto* gr = dynamic_cast<const physics::GravityTerm*>(t)) {
-      once(gravity, t->name());
-      for (int k = 0; k < 3; ++k) O.gravity[k] = gr->gravity()[k];
-      O.has_gravity = true;
-      if (!inertia) throw InputError("fmg-cuda: the gravity term must follow the inertia term (they share the masses)");
-      for (Index r = 0; r < O.n; ++r)
-        if (gr->mass()[top.perm[static_cast<size_t>(r)]] != O.mass[static_cast<size_t>(r)])
-          throw InputError("fmg-cuda: gravity and inertia use different masses, which the device pipeline does not support");
-    } else if (const auto* m = dynamic_cast<const physics::StVKMembrane*>(t)) {
-      once(membrane, t->name());
-      O.tris = group_elements<3>(*m, inv, top.pattern);
-      O.mu = m->mu();
-      O.lambda = m->lambda();
-      for (Index e : O.tris.source) {
-        const auto& rest = m->rest()[static_cast<size_t>(e)];
-        O.tri_dm_inv.insert(O.tri_dm_inv.end(), {rest.dm_inv(0, 0), rest.dm_inv(0, 1), rest.dm_inv(1, 0), rest.dm_inv(1, 1)});
-        O.tri_at.push_back(rest.area * m->thickness());
-      }
-    } else if (const auto* hb = dynamic_cast<const physics::HingeBending*>(t)) {
-      once(bending, "bending");
-      O.hinges = group_elements<4>(*hb, inv, top.pattern);
-      for (Index e : O.hinges.source) O.hinge_c.push_back(hb->weights()[static_cast<size_t>(e)]);
-    } else if (const auto* qb = dynamic_cast<const physics::QuadraticBending*>(t)) {
-      once(bending, "bending");
-      O.quadratic_bending = true;
-      O.hinges = group_elements<4>(*qb, inv, top.pattern);
-      for (Index e : O.hinges.source) {
-        O.hinge_c.push_back(qb->weights()[static_cast<size_t>(e)]);
-        const auto& K = qb->cotangent_weights()[static_cast<size_t>(e)];
-        O.hinge_k.insert(O.hinge_k.end(), {K[0], K[1], K[2], K[3]});
-      }
-    } else if (const auto* ib = dynamic_cast<const physics::IsometricBending*>(t)) {
-      once(bending, "bending");
-      O.isometric_bending = true;
-      const auto& K = ib->matrix();
-      O.bend_offsets.assign(1, 0);
-      for (Index r = 0; r < O.n; ++r) {
-        const Index i = top.perm[static_cast<size_t>(r)];
-        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(K, i); it; ++it) {
-          const Index c = inv[static_cast<size_t>(it.col())];
-          O.bend_cols.push_back(c);
-          O.bend_values.push_back(it.value());
-          O.bend_slots.push_back(top.pattern.find(r, c));
-          if (O.bend_slots.back() < 0) throw_error("device layout: bending entry ({}, {}) outside the Hessian pattern", i, it.col());
-        }
-        O.bend_offsets.push_back(static_cast<Index>(O.bend_cols.size()));
-      }
-      const physics::TriangleCurvature& S = ib->curvature();
-      O.curv_offsets = S.offsets;
-      for (size_t k = 0; k < S.vertices.size(); ++k) {
-        O.curv_vertices.push_back(inv[static_cast<size_t>(S.vertices[k])]);
-        O.curv_weights.insert(O.curv_weights.end(), {S.weights[k][0], S.weights[k][1], S.weights[k][2]});
-      }
-      for (double a : S.area) O.curv_kb_area.push_back(ib->stiffness() * a);
-    } else if (const auto* at = dynamic_cast<const physics::AttachmentTerm*>(t)) {
-      once(pins, t->name());
-      std::vector<std::vector<Index>> by_vertex(static_cast<size_t>(O.n));
-      for (Index p = 0; p < at->num_elements(); ++p)
-        by_vertex[static_cast<size_t>(inv[static_cast<size_t>(at->elements()[p][0])])].push_back(p);
-      O.pin_offsets.assign(1, 0);
-      for (const auto& list : by_vertex) {
-        for (Index p : list) {
-          O.pin_source.push_back(p);
-          O.pin_k.push_back(at->stiffness()[static_cast<size_t>(p)]);
-        }
-        O.pin_offsets.push_back(static_cast<Index>(O.pin_source.size()));
-      }
-    } else if (const auto* c = dynamic_cast<const physics::ObstacleContact*>(t)) {
-      once(contact, t->name());
-      O.thickness = c->params().thickness;
-      O.contact_k.resize(static_cast<size_t>(O.n));
-      for (Index r = 0; r < O.n; ++r) O.contact_k[static_cast<size_t>(r)] = c->vertex_stiffness(top.perm[static_cast<size_t>(r)]);
-    } else if (dynamic_cast<const physics::SubObjectiveTerm*>(t)) {
-      throw InputError("fmg-cuda: the device pipeline solves one body at a time (its data come from a body's own "
-                       "terms); for a scene of several bodies set \"solve_bodies\": \"separately\" or use \"fmg\"");
-    } else {
+  // Every term describes itself (physics::Term::describe_device); the layout only renumbers and colors.
+  physics::DeviceObjective d;
+  d.n = O.n;
+  for (const auto& term : objective.terms())
+    if (!term->describe_device(d))
       throw InputError(fmt::format(
           "fmg-cuda: the objective's term \"{}\" has no device implementation (the GPU pipeline takes inertia, gravity, "
           "the StVK membrane, every bending model, pins and the cubic obstacle penalty; use \"fmg\")",
-          t->name()));
+          term->name()));
+  if (!d.inertia) throw InputError("fmg-cuda: the objective has no inertia term");
+  const auto by_device_row = [&](const std::vector<double>& v) {
+    std::vector<double> out(static_cast<size_t>(O.n));
+    for (Index r = 0; r < O.n; ++r) out[static_cast<size_t>(r)] = v[static_cast<size_t>(top.perm[static_cast<size_t>(r)])];
+    return out;
+  };
+  O.mass = by_device_row(d.mass);
+  if (d.gravity) {
+    if (by_device_row(d.gravity_mass) != O.mass)
+      throw InputError("fmg-cuda: gravity and inertia use different masses, which the device pipeline does not support");
+    for (int k = 0; k < 3; ++k) O.gravity[k] = d.g[k];
+    O.has_gravity = true;
+  }
+  if (d.membrane) {
+    O.tris = group_elements<3>(d.triangles, inv, top.pattern);
+    O.mu = d.mu;
+    O.lambda = d.lambda;
+    for (Index e : O.tris.source) {
+      const auto& m = d.dm_inv[static_cast<size_t>(e)];
+      O.tri_dm_inv.insert(O.tri_dm_inv.end(), m.begin(), m.end());
+      O.tri_at.push_back(d.area_thickness[static_cast<size_t>(e)]);
     }
   }
-  if (!inertia) throw InputError("fmg-cuda: the objective has no inertia term");
-  if (O.pin_offsets.empty()) O.pin_offsets.assign(static_cast<size_t>(O.n) + 1, 0);
+  using Bending = physics::DeviceObjective::Bending;
+  if (d.bending == Bending::Hinge || d.bending == Bending::Quadratic) {
+    O.quadratic_bending = d.bending == Bending::Quadratic;
+    O.hinges = group_elements<4>(d.hinges, inv, top.pattern);
+    for (Index e : O.hinges.source) {
+      O.hinge_c.push_back(d.hinge_c[static_cast<size_t>(e)]);
+      if (O.quadratic_bending) {
+        const auto& K = d.hinge_k[static_cast<size_t>(e)];
+        O.hinge_k.insert(O.hinge_k.end(), K.begin(), K.end());
+      }
+    }
+  } else if (d.bending == Bending::Isometric) {
+    O.isometric_bending = true;
+    const auto& K = *d.bend_matrix;
+    O.bend_offsets.assign(1, 0);
+    for (Index r = 0; r < O.n; ++r) {
+      const Index i = top.perm[static_cast<size_t>(r)];
+      for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator it(K, i); it; ++it) {
+        const Index c = inv[static_cast<size_t>(it.col())];
+        O.bend_cols.push_back(c);
+        O.bend_values.push_back(it.value());
+        O.bend_slots.push_back(top.pattern.find(r, c));
+        if (O.bend_slots.back() < 0) throw_error("device layout: bending entry ({}, {}) outside the Hessian pattern", i, it.col());
+      }
+      O.bend_offsets.push_back(static_cast<Index>(O.bend_cols.size()));
+    }
+    const physics::TriangleCurvature& S = *d.curvature;
+    O.curv_offsets = S.offsets;
+    for (size_t k = 0; k < S.vertices.size(); ++k) {
+      O.curv_vertices.push_back(inv[static_cast<size_t>(S.vertices[k])]);
+      O.curv_weights.insert(O.curv_weights.end(), {S.weights[k][0], S.weights[k][1], S.weights[k][2]});
+    }
+    for (double a : S.area) O.curv_kb_area.push_back(d.bend_stiffness * a);
+  }
+  // Pins grouped by vertex (several pins may share one), each remembering its index for its target per step.
+  std::vector<std::vector<Index>> by_vertex(static_cast<size_t>(O.n));
+  for (size_t p = 0; p < d.pin_vertex.size(); ++p)
+    by_vertex[static_cast<size_t>(inv[static_cast<size_t>(d.pin_vertex[p])])].push_back(static_cast<Index>(p));
+  O.pin_offsets.assign(1, 0);
+  for (const auto& list : by_vertex) {
+    for (Index p : list) {
+      O.pin_source.push_back(p);
+      O.pin_k.push_back(d.pin_k[static_cast<size_t>(p)]);
+    }
+    O.pin_offsets.push_back(static_cast<Index>(O.pin_source.size()));
+  }
+  if (d.contact) {
+    O.thickness = d.thickness;
+    O.contact_k = by_device_row(d.contact_k);
+  }
   return L;
 }
 
 StepData step_data(const physics::Objective& objective, const Layout& layout) {
+  physics::DeviceStep d;
+  for (const auto& term : objective.terms()) term->describe_device_step(d);
   StepData s;
-  const ObjectiveLayout& O = layout.objective;
-  for (const auto& term : objective.terms()) {
-    const physics::Term* t = term.get();
-    if (const auto* in = dynamic_cast<const physics::InertiaTerm*>(t)) {
-      to_device_order(layout, in->prediction(), s.y);
-      s.inv_h2 = in->inv_h2();
-    } else if (const auto* at = dynamic_cast<const physics::AttachmentTerm*>(t)) {
-      for (Index p : O.pin_source) {
-        const Vec3& target = at->targets()[static_cast<size_t>(p)];
-        s.targets.insert(s.targets.end(), {target.x(), target.y(), target.z()});
-      }
-    } else if (const auto* c = dynamic_cast<const physics::ObstacleContact*>(t)) {
-      s.obstacles = c->obstacle_data();
-    }
+  to_device_order(layout, d.y, s.y);
+  s.inv_h2 = d.inv_h2;
+  for (Index p : layout.objective.pin_source) {
+    const Vec3& target = d.pin_targets[static_cast<size_t>(p)];
+    s.targets.insert(s.targets.end(), {target.x(), target.y(), target.z()});
   }
+  s.obstacles = std::move(d.obstacles);
   return s;
 }
 

@@ -25,4 +25,15 @@ double AttachmentTerm::element(Index e, const Local& xe, Local* g, LocalHessian*
                           H ? H->data() : nullptr);
 }
 
+
+bool AttachmentTerm::describe_device(DeviceObjective& out) const {
+  out.claim(out.pins, name());
+  out.pin_vertex.clear();
+  for (const auto& e : elements()) out.pin_vertex.push_back(e[0]);
+  out.pin_k = m_stiffness;
+  return true;
+}
+
+void AttachmentTerm::describe_device_step(DeviceStep& out) const { out.pin_targets = m_targets; }
+
 }  // namespace mgcloth::physics

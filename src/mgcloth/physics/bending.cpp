@@ -298,4 +298,37 @@ double QuadraticBending::element(Index e, const Local& xe, Local* g, LocalHessia
   return hd::quadratic_bending(xe.data(), m_k[e].data(), m_weight[e], g ? g->data() : nullptr, H ? H->data() : nullptr);
 }
 
+
+namespace {
+void claim_bending(DeviceObjective& out, DeviceObjective::Bending model) {
+  bool described = out.bending != DeviceObjective::Bending::None;
+  out.claim(described, "bending");
+  out.bending = model;
+}
+}  // namespace
+
+bool HingeBending::describe_device(DeviceObjective& out) const {
+  claim_bending(out, DeviceObjective::Bending::Hinge);
+  out.hinges.assign(elements().begin(), elements().end());
+  out.hinge_c = m_weight;
+  return true;
+}
+
+bool QuadraticBending::describe_device(DeviceObjective& out) const {
+  claim_bending(out, DeviceObjective::Bending::Quadratic);
+  out.hinges.assign(elements().begin(), elements().end());
+  out.hinge_c = m_weight;
+  out.hinge_k.clear();
+  for (const Eigen::Vector4d& k : m_k) out.hinge_k.push_back({k[0], k[1], k[2], k[3]});
+  return true;
+}
+
+bool IsometricBending::describe_device(DeviceObjective& out) const {
+  claim_bending(out, DeviceObjective::Bending::Isometric);
+  out.bend_matrix = &m_K;
+  out.curvature = &m_S;
+  out.bend_stiffness = m_kb;
+  return true;
+}
+
 }  // namespace mgcloth::physics

@@ -25,6 +25,7 @@ Mat12 dihedral_angle_hessian(const Vec12& x);
 /// quasi-uniform Delaunay meshes), making k_b the bending rigidity in N·m.
 class HingeBending final : public ElementTerm<4> {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   HingeBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_hinge"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
@@ -64,6 +65,7 @@ TriangleCurvature recovered_curvature(const mesh::TriMesh& mesh, const mesh::Top
 /// E = ½ Σ_c x_cᵀ K x_c with one constant scalar matrix K; its Hessian K ⊗ I₃ is positive semi-definite.
 class IsometricBending final : public Term {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   IsometricBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_quadratic"; }
   double value(const VecX& x) const override;
@@ -88,6 +90,7 @@ class IsometricBending final : public Term {
 /// constant and positive semi-definite; for small angles it agrees with HingeBending.
 class QuadraticBending final : public ElementTerm<4> {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_quadratic"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;

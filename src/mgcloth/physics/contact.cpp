@@ -81,4 +81,15 @@ void apply_friction(const VecX& x, VecX& v, const VecX& mass, const ObstaclePena
   });
 }
 
+
+bool ObstacleContact::describe_device(DeviceObjective& out) const {
+  out.claim(out.contact, name());
+  out.thickness = params().thickness;
+  out.contact_k.resize(static_cast<size_t>(out.n));
+  for (Index i = 0; i < out.n; ++i) out.contact_k[static_cast<size_t>(i)] = vertex_stiffness(i);
+  return true;
+}
+
+void ObstacleContact::describe_device_step(DeviceStep& out) const { out.obstacles = obstacle_data(); }
+
 }  // namespace mgcloth::physics

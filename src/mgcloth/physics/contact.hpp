@@ -46,6 +46,8 @@ class ObstaclePenalty : public ElementTerm<1> {
 /// (k/d)(2(d − φ)∇φ∇φᵀ − (d − φ)²∇²φ); the curvature part is negative on convex obstacles and clamped by projection.
 class ObstacleContact final : public ObstaclePenalty {
  public:
+  bool describe_device(DeviceObjective& out) const override;
+  void describe_device_step(DeviceStep& out) const override;
   ObstacleContact(VecX vertex_area, std::vector<geometry::Obstacle> obstacles, const ContactParams& params);
   std::string name() const override { return "contact"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;

@@ -34,4 +34,23 @@ double GravityTerm::element(Index i, const Local& xe, Local* g, LocalHessian* H)
   return -m_mass[i] * m_gravity.dot(xe);
 }
 
+
+bool InertiaTerm::describe_device(DeviceObjective& out) const {
+  out.claim(out.inertia, name());
+  out.mass.assign(m_mass.data(), m_mass.data() + m_mass.size());
+  return true;
+}
+
+void InertiaTerm::describe_device_step(DeviceStep& out) const {
+  out.y = m_y;
+  out.inv_h2 = m_inv_h2;
+}
+
+bool GravityTerm::describe_device(DeviceObjective& out) const {
+  out.claim(out.gravity, name());
+  out.g = m_gravity;
+  out.gravity_mass.assign(m_mass.data(), m_mass.data() + m_mass.size());
+  return true;
+}
+
 }  // namespace mgcloth::physics

@@ -6,6 +6,8 @@ namespace mgcloth::physics {
 /// Σ m_i / (2h²) |x_i − y_i|² with y = x_t + h v_t the inertial prediction: the kinetic part of Wang 2018, eq. (2).
 class InertiaTerm final : public ElementTerm<1> {
  public:
+  bool describe_device(DeviceObjective& out) const override;
+  void describe_device_step(DeviceStep& out) const override;
   explicit InertiaTerm(VecX lumped_mass);
   std::string name() const override { return "inertia"; }
   void set_prediction(const VecX& y, double h);
@@ -22,6 +24,7 @@ class InertiaTerm final : public ElementTerm<1> {
 /// −Σ m_i g·x_i: the potential of a uniform gravity field.
 class GravityTerm final : public ElementTerm<1> {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   GravityTerm(VecX lumped_mass, const Vec3& gravity);
   std::string name() const override { return "gravity"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;

@@ -77,4 +77,19 @@ double MassSpringMembrane::element(Index e, const Local& xe, Local* g, LocalHess
   return 0.5 * k * (l - L) * (l - L);
 }
 
+
+bool StVKMembrane::describe_device(DeviceObjective& out) const {
+  out.claim(out.membrane, name());
+  out.triangles.assign(elements().begin(), elements().end());
+  out.mu = m_mu;
+  out.lambda = m_lambda;
+  out.dm_inv.clear();
+  out.area_thickness.clear();
+  for (const TriangleRest& r : m_rest) {
+    out.dm_inv.push_back({r.dm_inv(0, 0), r.dm_inv(0, 1), r.dm_inv(1, 0), r.dm_inv(1, 1)});
+    out.area_thickness.push_back(r.area * m_thickness);
+  }
+  return true;
+}
+
 }  // namespace mgcloth::physics

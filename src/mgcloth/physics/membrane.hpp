@@ -28,6 +28,7 @@ double stvk_triangle(const Vec9& xe, const Mat2& dm_inv, double area_thickness, 
 /// StVK membrane over all triangles of a mesh, rest shape from material coordinates.
 class StVKMembrane final : public ElementTerm<3> {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   StVKMembrane(const mesh::TriMesh& mesh, const Material& material);
   std::string name() const override { return "membrane_stvk"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;

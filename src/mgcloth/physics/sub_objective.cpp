@@ -35,4 +35,10 @@ void SubObjectiveTerm::bind(const linalg::BlockMatrix3& pattern) {
       m_slots[static_cast<size_t>(k)] = pattern.find(m_offset + r, m_offset + P.col_indices()[k]);
 }
 
+
+bool SubObjectiveTerm::describe_device(DeviceObjective& /*out*/) const {
+  throw InputError("fmg-cuda: the device pipeline solves one body at a time (its data come from a body's own terms); "
+                   "for a scene of several bodies set \"solve_bodies\": \"separately\" or use \"fmg\"");
+}
+
 }  // namespace mgcloth::physics

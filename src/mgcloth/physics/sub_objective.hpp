@@ -12,6 +12,7 @@ namespace mgcloth::physics {
 /// joint pattern. The sub-objective must be finalized and outlive this term.
 class SubObjectiveTerm final : public Term {
  public:
+  bool describe_device(DeviceObjective& out) const override;
   SubObjectiveTerm(std::string name, const Objective& objective, Index offset)
       : m_name(std::move(name)), m_objective(&objective), m_offset(offset) {}
 

@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
 #include <mgcloth/linalg/block_matrix.hpp>
+#include <mgcloth/physics/device_data.hpp>
 
 #include <string>
 #include <utility>
@@ -28,6 +29,11 @@ class Term {
   /// gives the new ones and the objective rebuilds its pattern. The value and gradient must not depend on the
   /// stencils chosen (a pair outside them contributes nothing there). Most terms' stencils are fixed.
   virtual bool update_stencils(const VecX& /*x*/) { return false; }
+  /// Terms with a device implementation write their data for the device pipeline here and return true; false: the
+  /// pipeline cannot evaluate this term (it then refuses the objective, naming the term).
+  virtual bool describe_device(DeviceObjective& /*out*/) const { return false; }
+  /// Per time step, the data of describe_device() that changes (prediction, targets, obstacle poses).
+  virtual void describe_device_step(DeviceStep& /*out*/) const {}
 };
 
 }  // namespace mgcloth::physics
