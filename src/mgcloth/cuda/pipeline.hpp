@@ -703,11 +703,8 @@ class Pipeline final : public DeviceFmg {
       f();
       return;
     }
-    B::synchronize();
-    Timer t;
-    f();
-    B::synchronize();
-    slot += t.ms();
+    B::synchronize();  // only this part's own work in the time
+    timed(slot, f);
   }
   struct Profile {
     double smoothing = 0.0, coarse = 0.0, transfer = 0.0, smoother_bytes = 0.0;
