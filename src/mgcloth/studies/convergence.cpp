@@ -2,7 +2,7 @@
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <limits>
 #include <sstream>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 namespace fs = std::filesystem;
 
@@ -58,7 +58,7 @@ SolverSpec elastic_reference() {
 
 /// The studied body's index among the scene's bodies (its cloths, then its shells), which is also its group: the
 /// study's simulators solve every body separately.
-size_t study_body(const Scene& scene, const std::string& name) {
+size_t study_body(const sim::Scene& scene, const std::string& name) {
   std::vector<std::string> names;
   for (const auto& c : scene.cloths) names.push_back(c.name);
   for (const auto& s : scene.shells) names.push_back(s.name);
@@ -73,7 +73,7 @@ std::string form_name(bool projective) { return projective ? "projective" : "ela
 
 /// The scene with `spec` as its solver (its stop criteria kept), in the energy form the solver was made for (the
 /// study compares each solver on its own form), and the options' thread count.
-Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
+sim::Scene with_solver(sim::Scene scene, const SolverSpec& spec, int threads) {
   scene.solve_jointly = false;  // the study freezes one body's own step objective
   scene.solver.name = spec.config.name;
   scene.solver.params = spec.config.params;
@@ -83,8 +83,8 @@ Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
 }
 
 /// A simulator of `scene` with `spec` as its solver, in `state`.
-std::unique_ptr<Simulator> simulator_at(const Scene& scene, const SolverSpec& spec, int threads, const SimState& state) {
-  auto sim = std::make_unique<Simulator>(with_solver(scene, spec, threads));
+std::unique_ptr<sim::Simulator> simulator_at(const sim::Scene& scene, const SolverSpec& spec, int threads, const SimState& state) {
+  auto sim = std::make_unique<sim::Simulator>(with_solver(scene, spec, threads));
   sim->set_state(state.frame, state.step, state.x, state.v);
   return sim;
 }
@@ -153,11 +153,11 @@ void save_reference(const std::string& state_cache, const Json& key, const Refer
   write_file_atomic(file, kept + Json{{"key", key}, {"reference", reference_to_json(ref)}}.dump() + "\n");
 }
 
-ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from);
 
 /// E* of one form: the reference solver from x0 to opt.reference_rel_grad.
-ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy reference_energy(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                  const ConvergenceOptions& opt, const SimState& state, const VecX& x0,
                                  const Json& state_key) {
   Json key = {{"state", state_key},         {"form", form_name(projective)},
@@ -177,7 +177,7 @@ ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, boo
 
 /// The reference solver of one form from `from` (x0, or a solver's final iterate that went below E*) to
 /// opt.reference_rel_grad, the gradient norm relative to the one at x0 in both cases.
-ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
   VecX start;
@@ -265,11 +265,11 @@ double relative_energy_error(double energy, double initial_energy, double min_en
   return (energy - min_energy) / range;
 }
 
-Scene with_vertex_count(Scene scene, Index vertices) {
+sim::Scene with_vertex_count(sim::Scene scene, Index vertices) {
   if (vertices < 4 || vertices > 5'000'000)
     throw_input_error("vertex count must be within [4, 5000000] (got {})", vertices);
   for (size_t i = 0; i < scene.cloths.size(); ++i) {
-    MeshSource& m = scene.cloths[i].mesh;
+    bodies::MeshSource& m = scene.cloths[i].mesh;
     if (!m.file.empty())
       throw_input_error("{}: cloths[{}] (\"{}\"): the mesh is read from {}; only generated meshes can be given a vertex count",
                         scene.file, i, scene.cloths[i].name, m.file);
@@ -283,7 +283,7 @@ Scene with_vertex_count(Scene scene, Index vertices) {
   return scene;
 }
 
-SimState simulator_state(const Simulator& sim) {
+SimState simulator_state(const sim::Simulator& sim) {
   SimState st;
   st.step = sim.step_count();
   st.frame = static_cast<int>(st.step / sim.scene().substeps);
@@ -294,7 +294,7 @@ SimState simulator_state(const Simulator& sim) {
   return st;
 }
 
-Json state_cache_key(const Scene& scene) {
+Json state_cache_key(const sim::Scene& scene) {
   Json s = to_json(scene);
   for (const char* unrelated : {"frames", "threads", "output"}) s.erase(unrelated);
   for (auto& c : s["cloths"])
@@ -357,7 +357,7 @@ std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, con
   return std::nullopt;
 }
 
-ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& opt) {
+ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt) {
   check_options(opt);
   const size_t body = study_body(scene, opt.body);
   // Every spec is built once now, so that a typo fails before anything is simulated.
@@ -391,7 +391,7 @@ ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& 
     logger().info("state at the start of step {} read from {}", opt.step, opt.state_cache);
   } else {
     result.start_state = "simulated";
-    Simulator sim(with_solver(scene, elastic, opt.threads));
+    sim::Simulator sim(with_solver(scene, elastic, opt.threads));
     Timer timer;
     while (sim.step_count() < steps_before) {
       sim.step();
@@ -626,7 +626,7 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
           {"solvers", solvers}};
 }
 
-std::vector<ScalabilityRow> run_scalability(const Scene& scene, const ScalabilityOptions& opt) {
+std::vector<ScalabilityRow> run_scalability(const sim::Scene& scene, const ScalabilityOptions& opt) {
   if (opt.vertices.empty()) throw_input_error("vertices: the list is empty");
   if (opt.steps < 1) throw_input_error("steps: must be at least 1 (got {})", opt.steps);
   if (opt.warmup < 0) throw_input_error("warm-up steps: must be non-negative (got {})", opt.warmup);
@@ -638,14 +638,14 @@ std::vector<ScalabilityRow> run_scalability(const Scene& scene, const Scalabilit
 
   std::vector<ScalabilityRow> rows;
   for (Index n : opt.vertices) {
-    Scene s = with_solver(with_vertex_count(scene, n), opt.solver, opt.threads);
+    sim::Scene s = with_solver(with_vertex_count(scene, n), opt.solver, opt.threads);
     s.solver.stop.rel_grad = opt.rel_grad;
     s.solver.stop.abs_grad = 0.0;
     ScalabilityRow row;
     row.target_vertices = n;
     row.solver = opt.solver.label;
     Timer timer;
-    Simulator sim(std::move(s));
+    sim::Simulator sim(std::move(s));
     row.setup_ms = timer.ms();
     for (const auto& c : sim.cloths()) row.vertices += c->mesh().num_vertices();
     for (int k = 0; k < opt.warmup; ++k) sim.step();
@@ -695,4 +695,4 @@ std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const Scala
   return out;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies
