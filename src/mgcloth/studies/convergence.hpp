@@ -1,5 +1,5 @@
 #pragma once
-// Solver benchmarks on the objectives of a scene (ARCHITECTURE.md, "Benchmarks freeze the objective of one step"):
+// Solver benchmarks on the objectives of a scene (docs/ARCHITECTURE.md, "Data flow": studies freeze one step):
 // convergence of several solvers on one frozen step, measured by the relative energy error against time (Wang
 // 2018, Fig. 4), and the scalability of one solver with the cloth's vertex count.
 #include <mgcloth/sim/simulator.hpp>
