@@ -219,7 +219,7 @@ int run_convergence_command() {
   write_file_atomic(out / "convergence.csv", studies::convergence_csv(result));
   write_file_atomic(out / "convergence.json", studies::to_json(result, opt).dump(2) + "\n");
 
-  std::string table = fmt::format("{}: cloth \"{}\" ({} vertices), step {} (start state {}{})\n", result.scene,
+  std::string table = fmt::format("{}: body \"{}\" ({} points), step {} (start state {}{})\n", result.scene,
                                   result.cloth, result.vertices, result.step, result.start_state,
                                   result.start_state == "simulated" ? " with " + result.warmup_solver : "");
   for (const auto& r : result.references)

@@ -278,3 +278,34 @@ TEST(Convergence, TheBenchmarkedBodyIsChosenByName) {
     EXPECT_NE(std::string(e.what()).find("no body named \"skirt\" (its bodies: sheet, flag)"), std::string::npos) << e.what();
   }
 }
+
+// A shell is a body like a cloth: its step can be the frozen one, also after simulated steps, and the state at the
+// start of the step (cached or not) holds every body, the shell's included.
+TEST(Convergence, AShellsStepCanBeTheFrozenOne) {
+  Json j = parse_json(R"({ "gravity": [0, 0, -9.81], "time_step": 0.5,
+      "cloths": [ { "name": "sheet", "mesh": { "vertices": 60 }, "pins": [ { "points": [[0, 1], [1, 1]] } ] } ],
+      "shells": [ { "name": "plate", "control_mesh": { "generator": "rectangle", "cells_u": 2, "cells_v": 2 },
+                    "level": 2, "boundary": [ { "type": "fixed", "sides": "all" } ] } ],
+      "solver": { "name": "tr-dogleg", "rel_grad": 1e-6, "max_iters": 200 } })", "both.json");
+  const sim::Scene scene = sim::parse_scene(j, "both.json", ".");
+  studies::ConvergenceOptions opt;
+  opt.solvers = studies::parse_solver_list("tr-dogleg");
+  opt.step = 2;
+  opt.budget_seconds = 5.0;
+  opt.max_iters = 100;
+  opt.threads = 1;
+  opt.body = "plate";
+  const fs::path cache = fs::temp_directory_path() / ("mgcloth_shell_state_" + std::to_string(::getpid()) + ".bin");
+  opt.state_cache = cache.string();
+  const sim::Simulator s(scene);
+  for (const char* start : {"simulated", "cache"}) {
+    const auto r = studies::run_convergence(scene, opt);
+    EXPECT_EQ(r.start_state, start);
+    EXPECT_EQ(r.cloth, "plate");
+    EXPECT_EQ(r.vertices, s.bodies()[1]->num_points());
+    ASSERT_EQ(r.summaries.size(), 1u);
+    EXPECT_LT(std::abs(r.summaries[0].final_error), 1e-6) << r.summaries[0].status;
+  }
+  fs::remove(cache);
+  fs::remove(cache.string() + ".references");
+}

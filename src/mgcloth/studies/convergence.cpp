@@ -287,9 +287,9 @@ SimState simulator_state(const sim::Simulator& sim) {
   SimState st;
   st.step = sim.step_count();
   st.frame = static_cast<int>(st.step / sim.scene().substeps);
-  for (const auto& c : sim.cloths()) {
-    st.x.push_back(c->x());
-    st.v.push_back(c->v());
+  for (const auto& b : sim.bodies()) {  // every body, shells too: Simulator::set_state takes them all
+    st.x.push_back(b->x());
+    st.v.push_back(b->v());
   }
   return st;
 }

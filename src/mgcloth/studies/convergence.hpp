@@ -35,7 +35,7 @@ double relative_energy_error(double energy, double initial_energy, double min_en
 /// read from a file is InputError (it cannot be resized).
 sim::Scene with_vertex_count(sim::Scene scene, Index vertices);
 
-/// A simulator state: completed frames and steps, and every cloth's positions and velocities.
+/// A simulator state: completed frames and steps, and every body's positions and velocities (Simulator::bodies()).
 struct SimState {
   int frame = 0;
   long step = 0;
