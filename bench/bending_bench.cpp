@@ -1,8 +1,8 @@
 // The bending rigidity each bending model realizes, measured as the textile cantilever test (ASTM D1388) does: a
 // strip clamped at one end droops under its own weight, and the rigidity B for which the heavy elastica droops as far
-// is the realized one (sim/cantilever.hpp: two overhangs fix both B and where the clamp acts). Regular and unstructured meshes, strips along u, v and the diagonal, at
+// is the realized one (studies/cantilever.hpp: two overhangs fix both B and where the clamp acts). Regular and unstructured meshes, strips along u, v and the diagonal, at
 // two resolutions; a realized B / bending_stiffness of 1 is a mesh-independent discretization.
-#include <mgcloth/sim/cantilever.hpp>
+#include <mgcloth/studies/cantilever.hpp>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -37,9 +37,9 @@ int main(int argc, char** argv) {
     for (bool unstructured : {false, true})
       for (double angle : {0.0, 90.0, 45.0})
         for (Index n : vertices) {
-          const sim::Strip strip = sim::make_strip(unstructured, angle, n, L + clamp * L, W);
+          const studies::Strip strip = studies::make_strip(unstructured, angle, n, L + clamp * L, W);
           const double h = std::sqrt(L * W / static_cast<double>(n));
-          const sim::CantileverResult r = sim::cantilever(strip, mat, clamp * L, 1.5 * h);
+          const studies::CantileverResult r = studies::cantilever(strip, mat, clamp * L, 1.5 * h);
           fmt::print("{:>16} {:>12} {:>9} {:>9} {:>11.6f} {:>13.6f} {:>10.4f} {:>12.2f} {:>14.4f}\n", model,
                      unstructured ? "unstructured" : "regular", angle == 0.0 ? "u" : angle == 90.0 ? "v" : "diagonal",
                      strip.mesh.num_vertices(), r.drop, r.elastica_drop, r.rigidity / mat.bending_stiffness,

@@ -19,7 +19,7 @@
 #include <mgcloth/linalg/cholmod_solver.hpp>
 #include <mgcloth/linalg/hypre_amg.hpp>
 #include <mgcloth/linalg/pcg.hpp>
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 #include <mgcloth/sim/simulator.hpp>
 #include <mgcloth/solvers/linear_multigrid.hpp>
 
@@ -86,9 +86,9 @@ int main(int argc, char** argv) {
     auto& body = *s.cloths()[0];
     const Index n = body.mesh().num_vertices();
     // The cached state depends on the scene as run here (vertex count, loose solver) and on the frame count.
-    const Json state_key = {{"bench", "linear"}, {"scene", sim::state_cache_key(s.scene())}, {"frames", frames}};
-    std::optional<sim::SimState> cached;
-    if (!state.empty()) cached = sim::load_state_cache(state, state_key);
+    const Json state_key = {{"bench", "linear"}, {"scene", studies::state_cache_key(s.scene())}, {"frames", frames}};
+    std::optional<studies::SimState> cached;
+    if (!state.empty()) cached = studies::load_state_cache(state, state_key);
     if (cached) {
       s.set_state(cached->frame, cached->step, cached->x, cached->v);
     } else {
@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
         for (const auto& st : s.advance_frame())
           std::fprintf(stderr, "frame %d: %d Newton iterations, %.1f s\n", st.frame, st.report.iterations, st.wall_ms / 1e3);
       }
-      if (!state.empty()) sim::save_state_cache(state, state_key, sim::simulator_state(s));
+      if (!state.empty()) studies::save_state_cache(state, state_key, studies::simulator_state(s));
     }
     const double t = static_cast<double>(frames) * s.scene().frame_time;  // also right for a cached state
     body.prepare_step(t, s.scene().step_size());

@@ -9,7 +9,7 @@
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/physics/objective.hpp>
 #include <mgcloth/sim/scene.hpp>
-#include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/studies/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include <CLI/CLI.hpp>
@@ -21,7 +21,7 @@ using namespace mgcloth;
 namespace {
 
 int run(const std::string& scene_file, const std::string& state_file, int samples, unsigned seed) {
-  const sim::ShellBenchState st = sim::read_shell_bench_state(state_file);
+  const studies::ShellBenchState st = studies::read_shell_bench_state(state_file);
   if (st.level < 1 || st.level > 9)
     throw_input_error("{}: level {} is not a shell level (1 to 9)", state_file, st.level);
   sim::Scene scene = sim::load_scene(scene_file);

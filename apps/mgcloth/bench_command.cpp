@@ -1,4 +1,4 @@
-// `mgcloth bench`: the solver benchmarks of sim/convergence.hpp with their outputs — CSV, a JSON summary, a table
+// `mgcloth bench`: the solver benchmarks of studies/convergence.hpp with their outputs — CSV, a JSON summary, a table
 // on stdout and a plot drawn by the matplotlib scripts of bench/, which are embedded in the binary at build time and
 // run with python3 from a temporary copy (so the command works from any folder and when installed).
 #include "commands.hpp"
@@ -11,9 +11,9 @@
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/embedded/plot_convergence.hpp>
 #include <mgcloth/embedded/plot_scalability.hpp>
-#include <mgcloth/sim/convergence.hpp>
-#include <mgcloth/sim/shell_bench.hpp>
-#include <mgcloth/sim/timestep_bench.hpp>
+#include <mgcloth/studies/convergence.hpp>
+#include <mgcloth/studies/shell_bench.hpp>
+#include <mgcloth/studies/timestep_bench.hpp>
 
 #include <fmt/format.h>
 
@@ -187,7 +187,7 @@ void set_log_level(bool quiet) { logger().set_level(quiet ? spdlog::level::warn 
 
 int run_convergence_command() {
   check_scene_file(g_conv.scene);
-  const auto specs = with_prefix("--solvers", [] { return sim::parse_solver_list(g_conv.solvers); });
+  const auto specs = with_prefix("--solvers", [] { return studies::parse_solver_list(g_conv.solvers); });
   if (g_conv.step < 1) throw_input_error("--step: must be at least 1 (got {})", g_conv.step);
   if (!(g_conv.budget > 0.0) || !std::isfinite(g_conv.budget))
     throw_input_error("--budget: must be a positive number of seconds (got {})", g_conv.budget);
@@ -197,8 +197,8 @@ int run_convergence_command() {
   if (g_conv.threads < 0) throw_input_error("--threads: must be non-negative (got {})", g_conv.threads);
   sim::Scene scene = sim::load_scene(g_conv.scene);
   if (g_conv.vertices_option->count() > 0)
-    scene = with_prefix("--vertices", [&] { return sim::with_vertex_count(std::move(scene), g_conv.vertices); });
-  sim::ConvergenceOptions opt;
+    scene = with_prefix("--vertices", [&] { return studies::with_vertex_count(std::move(scene), g_conv.vertices); });
+  studies::ConvergenceOptions opt;
   opt.step = g_conv.step;
   opt.solvers = specs;
   opt.budget_seconds = g_conv.budget;
@@ -210,16 +210,16 @@ int run_convergence_command() {
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (specs[i].label == specs[j].label) throw_input_error("--solvers: \"{}\" is listed twice", specs[i].label);
-  for (const auto& s : specs) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  for (const auto& s : specs) with_prefix("--solvers", [&] { return studies::check_solver_spec(s); });
   const fs::path out = g_conv.out;
   prepare_out_dir(out);
   set_log_level(g_conv.quiet);
 
-  const sim::ConvergenceResult result = sim::run_convergence(scene, opt);
-  write_file_atomic(out / "convergence.csv", sim::convergence_csv(result));
-  write_file_atomic(out / "convergence.json", sim::to_json(result, opt).dump(2) + "\n");
+  const studies::ConvergenceResult result = studies::run_convergence(scene, opt);
+  write_file_atomic(out / "convergence.csv", studies::convergence_csv(result));
+  write_file_atomic(out / "convergence.json", studies::to_json(result, opt).dump(2) + "\n");
 
-  std::string table = fmt::format("{}: cloth \"{}\" ({} vertices), step {} (start state {}{})\n", result.scene,
+  std::string table = fmt::format("{}: body \"{}\" ({} points), step {} (start state {}{})\n", result.scene,
                                   result.cloth, result.vertices, result.step, result.start_state,
                                   result.start_state == "simulated" ? " with " + result.warmup_solver : "");
   for (const auto& r : result.references)
@@ -249,9 +249,9 @@ int run_convergence_command() {
 
 int run_scalability_command() {
   check_scene_file(g_scal.scene);
-  sim::ScalabilityOptions opt;
+  studies::ScalabilityOptions opt;
   opt.vertices = parse_vertex_list(g_scal.vertices);
-  opt.solver = with_prefix("--solver", [] { return sim::parse_solver_spec(g_scal.solver); });
+  opt.solver = with_prefix("--solver", [] { return studies::parse_solver_spec(g_scal.solver); });
   opt.steps = g_scal.steps;
   opt.warmup = g_scal.warmup;
   opt.rel_grad = g_scal.rel_grad;
@@ -261,16 +261,16 @@ int run_scalability_command() {
   if (!(opt.rel_grad > 0.0 && opt.rel_grad < 1.0)) throw_input_error("--rel-grad: must be in (0, 1) (got {})", opt.rel_grad);
   if (opt.threads < 0) throw_input_error("--threads: must be non-negative (got {})", opt.threads);
   if (g_scal.substeps < 0) throw_input_error("--substeps: must be positive (got {})", g_scal.substeps);
-  with_prefix("--solver", [&] { return sim::check_solver_spec(opt.solver); });
+  with_prefix("--solver", [&] { return studies::check_solver_spec(opt.solver); });
   sim::Scene scene = sim::load_scene(g_scal.scene);
   if (g_scal.substeps > 0) scene.substeps = g_scal.substeps;
-  for (Index n : opt.vertices) with_prefix("--vertices", [&] { return sim::with_vertex_count(scene, n); });
+  for (Index n : opt.vertices) with_prefix("--vertices", [&] { return studies::with_vertex_count(scene, n); });
   const fs::path out = g_scal.out;
   prepare_out_dir(out);
   set_log_level(g_scal.quiet);
 
-  const auto rows = sim::run_scalability(scene, opt);
-  write_file_atomic(out / "scalability.csv", sim::scalability_csv(rows, opt));
+  const auto rows = studies::run_scalability(scene, opt);
+  write_file_atomic(out / "scalability.csv", studies::scalability_csv(rows, opt));
   std::string table = fmt::format("{}: {}, dt = 1/{:g} s, {} steps after {} warm-up steps, relative gradient {:g}, {} threads\n",
                                   scene.file, opt.solver.label, 1.0 / scene.step_size(), opt.steps, opt.warmup,
                                   opt.rel_grad, opt.threads > 0 ? opt.threads : num_threads());
@@ -290,11 +290,11 @@ int run_scalability_command() {
 }
 
 int run_shells_command() {
-  sim::ShellBenchOptions opt;
+  studies::ShellBenchOptions opt;
   opt.levels.clear();
   for (Index v : parse_int_list(g_shell.levels, "--levels", "level", "1,2,3,4", 1, 9)) opt.levels.push_back(v);
-  opt.solvers = with_prefix("--solvers", [] { return sim::parse_solver_list(g_shell.solvers); });
-  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  opt.solvers = with_prefix("--solvers", [] { return studies::parse_solver_list(g_shell.solvers); });
+  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return studies::check_solver_spec(s); });
   opt.time_step = g_shell.time_step;
   opt.max_iters = g_shell.max_iters;
   opt.max_seconds = g_shell.max_seconds;
@@ -318,13 +318,13 @@ int run_shells_command() {
   set_log_level(g_shell.quiet);
   if (g_shell.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every solve: a study of hours keeps what it has measured if it is stopped.
-  const auto write = [&](const std::vector<sim::ShellBenchRow>& rows) {
-    write_file_atomic(out / "shells.csv", sim::shell_bench_csv(rows));
-    write_file_atomic(out / "shells.json", sim::shell_bench_json(rows, opt).dump(2) + "\n");
+  const auto write = [&](const std::vector<studies::ShellBenchRow>& rows) {
+    write_file_atomic(out / "shells.csv", studies::shell_bench_csv(rows));
+    write_file_atomic(out / "shells.json", studies::shell_bench_json(rows, opt).dump(2) + "\n");
   };
   // Ctrl-C (or SIGTERM) ends the running solve at its next iteration with its state written; --resume goes on.
   install_interrupt_handler();
-  const auto rows = sim::run_shell_bench(scenes, opt, write);
+  const auto rows = studies::run_shell_bench(scenes, opt, write);
   write(rows);
   std::string table = fmt::format("{:<12} {:>5} {:>7} {:<12} {:>10} {:>11} {:>10} {:>9}\n", "shell", "level", "dofs",
                                   "solver", "iterations", "status", "rel_grad", "wall_s");
@@ -343,7 +343,7 @@ int run_shells_command() {
 
 /// The rows of an earlier run's timestep.json, when it measured what `opt` asks for: the same level, window, caps
 /// per solve and stall criterion (solvers, time steps and the try cap may differ; rows are matched one by one).
-std::vector<sim::TimestepBenchRow> resumable_rows(const fs::path& file, const sim::TimestepBenchOptions& opt) {
+std::vector<studies::TimestepBenchRow> resumable_rows(const fs::path& file, const studies::TimestepBenchOptions& opt) {
   if (!fs::exists(file)) return {};
   const Json j = load_json(file.string());
   // A key that an older file lacks had its default then.
@@ -363,22 +363,22 @@ std::vector<sim::TimestepBenchRow> resumable_rows(const fs::path& file, const si
   check("stall_rel_grad", opt.stall_rel_grad, "--stall-rel-grad");
   check("stall_abs_grad", opt.stall_abs_grad, "--stall-abs-grad", 0.0);
   try {
-    return sim::timestep_bench_rows(j);
+    return studies::timestep_bench_rows(j);
   } catch (const Json::exception& e) {
     throw_input_error("--resume: {}: {}", file.string(), e.what());
   }
 }
 
 int run_timestep_command() {
-  sim::TimestepBenchOptions opt;
+  studies::TimestepBenchOptions opt;
   if (g_step.level < 1 || g_step.level > 9) throw_input_error("--level: {} is out of range [1, 9]", g_step.level);
   opt.level = g_step.level;
-  opt.solvers = with_prefix("--solvers", [] { return sim::parse_solver_list(g_step.solvers); });
+  opt.solvers = with_prefix("--solvers", [] { return studies::parse_solver_list(g_step.solvers); });
   for (size_t i = 0; i < opt.solvers.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (opt.solvers[i].label == opt.solvers[j].label)
         throw_input_error("--solvers: \"{}\" is listed twice", opt.solvers[i].label);
-  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return sim::check_solver_spec(s); });
+  for (const auto& s : opt.solvers) with_prefix("--solvers", [&] { return studies::check_solver_spec(s); });
   const auto positive = [](const char* option, double v) {
     if (!(v > 0.0) || !std::isfinite(v)) throw_input_error("{}: must be a positive number of seconds (got {})", option, v);
   };
@@ -417,18 +417,18 @@ int run_timestep_command() {
   }
   const fs::path out = g_step.out;
   prepare_out_dir(out);
-  const std::vector<sim::TimestepBenchRow> previous = g_step.resume ? resumable_rows(out / "timestep.json", opt)
-                                                                    : std::vector<sim::TimestepBenchRow>{};
+  const std::vector<studies::TimestepBenchRow> previous = g_step.resume ? resumable_rows(out / "timestep.json", opt)
+                                                                    : std::vector<studies::TimestepBenchRow>{};
   set_log_level(g_step.quiet);
   if (g_step.verbose) logger().set_level(spdlog::level::debug);
   // Rewritten after every try: a study of an hour keeps what it has measured if it is stopped.
-  const auto write = [&](const std::vector<sim::TimestepBenchRow>& rows) {
-    write_file_atomic(out / "timestep.csv", sim::timestep_bench_csv(rows));
-    write_file_atomic(out / "timestep.json", sim::timestep_bench_json(rows, opt).dump(2) + "\n");
+  const auto write = [&](const std::vector<studies::TimestepBenchRow>& rows) {
+    write_file_atomic(out / "timestep.csv", studies::timestep_bench_csv(rows));
+    write_file_atomic(out / "timestep.json", studies::timestep_bench_json(rows, opt).dump(2) + "\n");
   };
-  const auto rows = sim::run_timestep_bench(scenes, opt, write, previous);
+  const auto rows = studies::run_timestep_bench(scenes, opt, write, previous);
   write(rows);
-  const auto summary = sim::timestep_bench_summary(rows);
+  const auto summary = studies::timestep_bench_summary(rows);
   size_t width = 6;
   for (const auto& s : summary) width = std::max(width, s.solver.size());
   std::string table = fmt::format("{:<12} {:>6} {:<{}} {:>10} {:>10} {:>9} {:>6} {:>9}\n", "shell", "dofs", "solver",
@@ -450,8 +450,8 @@ int run_projections_command() {
   const fs::path out = g_proj.out;
   prepare_out_dir(out);
   set_log_level(g_proj.quiet);
-  const auto rows = sim::run_projection_bench(scene);
-  write_file_atomic(out / "projections.csv", sim::projection_bench_csv(rows));
+  const auto rows = studies::run_projection_bench(scene);
+  write_file_atomic(out / "projections.csv", studies::projection_bench_csv(rows));
   std::string table = fmt::format("{:<20} {:>5} {:>7} {:>7} {:>10} {:>10} {:>12} {:>9} {:>10}\n", "operator", "level",
                                   "fine", "coarse", "build_ms", "apply_ms", "bytes", "entries", "|PSq-q|");
   for (const auto& r : rows)

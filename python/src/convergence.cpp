@@ -1,8 +1,8 @@
-// The convergence benchmark of `mgcloth bench convergence` (sim/convergence.hpp), with its trace as arrays.
+// The convergence benchmark of `mgcloth bench convergence` (studies/convergence.hpp), with its trace as arrays.
 #include "bindings.hpp"
 
 #include <mgcloth/core/file_io.hpp>
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 
 #include <pybind11/stl.h>
 
@@ -13,18 +13,18 @@ namespace mgcloth::python {
 namespace {
 
 struct PyConvergence {
-  sim::ConvergenceResult result;
-  sim::ConvergenceOptions options;
+  studies::ConvergenceResult result;
+  studies::ConvergenceOptions options;
 };
 
-std::vector<std::string> labels(const sim::ConvergenceResult& r) {
+std::vector<std::string> labels(const studies::ConvergenceResult& r) {
   std::vector<std::string> out;
   for (const auto& s : r.summaries) out.push_back(s.solver);
   return out;
 }
 
-py::dict trace_of(const sim::ConvergenceResult& r, const std::string& solver) {
-  std::vector<const sim::ConvergenceRow*> rows;
+py::dict trace_of(const studies::ConvergenceResult& r, const std::string& solver) {
+  std::vector<const studies::ConvergenceRow*> rows;
   for (const auto& row : r.rows)
     if (row.solver == solver) rows.push_back(&row);
   if (rows.empty()) {
@@ -53,7 +53,7 @@ py::dict trace_of(const sim::ConvergenceResult& r, const std::string& solver) {
 
 /// The checks `mgcloth bench convergence` makes before anything runs, with its messages ("solvers" for
 /// "--solvers", and so on).
-void check(const sim::ConvergenceOptions& opt, Index vertices) {
+void check(const studies::ConvergenceOptions& opt, Index vertices) {
   if (opt.step < 1) throw_input_error("step: must be at least 1 (got {})", opt.step);
   if (!(opt.budget_seconds > 0.0) || !std::isfinite(opt.budget_seconds))
     throw_input_error("budget: must be a positive number of seconds (got {})", opt.budget_seconds);
@@ -68,7 +68,7 @@ void check(const sim::ConvergenceOptions& opt, Index vertices) {
         throw_input_error("solvers: \"{}\" is listed twice", opt.solvers[i].label);
   for (const auto& s : opt.solvers) {
     try {
-      sim::check_solver_spec(s);
+      studies::check_solver_spec(s);
     } catch (const InputError& e) {
       throw InputError(fmt::format("solvers: {}", e.what()));
     }
@@ -95,7 +95,7 @@ void bind_convergence(py::module_& m) {
             return d;
           },
           "trace() of every solver, by label.")
-      .def_property_readonly("summary", [](const PyConvergence& c) { return from_json(sim::to_json(c.result, c.options)); },
+      .def_property_readonly("summary", [](const PyConvergence& c) { return from_json(studies::to_json(c.result, c.options)); },
                              "What convergence.json holds: E* per energy form and how it was reached, the options, "
                              "and per solver the time to errors 1e-2, 1e-3 and 1e-4, the final error and the iterations.")
       .def_property_readonly("vertices", [](const PyConvergence& c) { return c.result.vertices; },
@@ -104,7 +104,7 @@ void bind_convergence(py::module_& m) {
                              "Name of the benchmarked cloth.")
       .def_property_readonly("step", [](const PyConvergence& c) { return c.result.step; },
                              "The benchmarked step K.")
-      .def("csv", [](const PyConvergence& c) { return sim::convergence_csv(c.result); },
+      .def("csv", [](const PyConvergence& c) { return studies::convergence_csv(c.result); },
            "The text of convergence.csv (solver,iteration,wall_s,energy,grad_norm,rel_energy_error).")
       .def("__repr__", [](const PyConvergence& c) {
         return fmt::format("<mgcloth.ConvergenceResult step {} of \"{}\" ({} vertices): {}>", c.result.step,
@@ -128,7 +128,7 @@ void bind_convergence(py::module_& m) {
         if (solvers.empty()) throw_input_error("solvers: needs at least one solver");
         for (const auto& spec : solvers) {
           try {
-            opt.solvers.push_back(sim::parse_solver_spec(spec));
+            opt.solvers.push_back(studies::parse_solver_spec(spec));
           } catch (const InputError& e) {
             throw InputError(fmt::format("solvers: {}", e.what()));
           }
@@ -143,20 +143,20 @@ void bind_convergence(py::module_& m) {
         check(opt, vertices.value_or(1));
         if (vertices) {
           try {
-            s = sim::with_vertex_count(std::move(s), *vertices);
+            s = studies::with_vertex_count(std::move(s), *vertices);
           } catch (const InputError& e) {
             throw InputError(fmt::format("vertices: {}", e.what()));
           }
         }
         {
           py::gil_scoped_release release;
-          c->result = sim::run_convergence(s, opt);
+          c->result = studies::run_convergence(s, opt);
         }
         if (!out.is_none()) {
           const std::filesystem::path dir = py::module_::import("os").attr("fspath")(out).cast<std::string>();
           std::filesystem::create_directories(dir);
-          write_file_atomic(dir / "convergence.csv", sim::convergence_csv(c->result));
-          write_file_atomic(dir / "convergence.json", sim::to_json(c->result, opt).dump(2) + "\n");
+          write_file_atomic(dir / "convergence.csv", studies::convergence_csv(c->result));
+          write_file_atomic(dir / "convergence.json", studies::to_json(c->result, opt).dump(2) + "\n");
         }
         return c;
       },
@@ -164,7 +164,7 @@ void bind_convergence(py::module_& m) {
       py::arg("max_iters"), py::arg("threads"), py::arg("vertices"), py::arg("state_cache"),
       py::arg("reference_seconds"), py::arg("out"), py::arg("body") = "",
       "The convergence benchmark on a scene dict (mgcloth.convergence() is the front end): see "
-      "sim::run_convergence and `mgcloth bench convergence`.");
+      "studies::run_convergence and `mgcloth bench convergence`.");
 }
 
 }  // namespace mgcloth::python

@@ -178,213 +178,276 @@ void Rmtr::scale_finest(const VecX& x) {
   update_norms(true);
 }
 
-Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin,
-                               double parent_radius, const LocalTrControl& base) {
-  Level& L = *m_levels[static_cast<size_t>(l)];
-  // "finest" is the top of the current V-cycles: the finest level, or a coarser one during nested iteration.
-  const bool finest = l == m_top, coarsest = l == 0;
-  const bool really_finest = l == static_cast<int>(m_levels.size()) - 1;
-  RmtrLevelCounters& C = m_counters[static_cast<size_t>(l)];
-  ++C.visits;
-  const TrustRegionParams& p = m_params.tr;
+/// One visit of a level (Alg. 4.2 on level l): its model h_l, the control of its Local_TR runs, its radius and the
+/// model's value at the current iterate.
+struct Rmtr::Visit {
+  int l = 0;
+  Level& L;
+  RmtrLevelCounters& C;
+  /// "finest" is the top of the current V-cycles: the finest level, or a coarser one during nested iteration.
+  bool finest = false, coarsest = false, really_finest = false;
+  VecX x0{};  ///< where the visit started
+  std::unique_ptr<LevelModel> h{};
+  LocalTrControl c{};
+  double f0 = 0.0;      ///< h_l(x₀) on a coarse level
+  double radius = 0.0;  ///< Δ^l
+  double fx = 0.0;      ///< h_l at the current iterate
+  CycleResult out{};
+};
 
-  // Line 1: the level's model h_l (eq. 4.3) with δg of eq. 4.4; its gradient at x₀ is the restricted one (4.5).
-  const VecX x0 = x;
-  std::unique_ptr<LevelModel> h;
-  LocalTrControl c = base;
-  c.metric = L.metric.get();
-  double f0 = 0.0, radius = 0.0;
-  if (finest) {
-    h = std::make_unique<LevelModel>(*L.f);
-    radius = m_radius;
+namespace {
+/// δH = Sᵀ ∇²h_{l+1} S − ∇²f_l(x₀) in the pattern of ∇²f_l: `delta_h` holds ∇²f_l(x₀) on entry, `galerkin` the
+/// Galerkin operator (whose blocks outside that pattern are not part of the model).
+void galerkin_difference(const linalg::BlockMatrix3& galerkin, linalg::BlockMatrix3& delta_h) {
+  const auto& rows = delta_h.row_offsets();
+  const auto& cols = delta_h.col_indices();
+  for (Index i = 0; i < delta_h.rows(); ++i)
+    for (Index k = rows[i]; k < rows[i + 1]; ++k) {
+      const Index kg = galerkin.find(i, cols[k]);
+      const Mat3 gk = kg >= 0 ? galerkin.block(kg) : Mat3::Zero();
+      delta_h.block(k) = gk - delta_h.block(k);
+    }
+}
+}  // namespace
+
+void Rmtr::build_model(Visit& v, const VecX* restricted, const linalg::BlockMatrix3* galerkin, double parent_radius,
+                       const LocalTrControl& base) {
+  Level& L = v.L;
+  v.c = base;
+  v.c.metric = L.metric.get();
+  if (v.finest) {
+    v.h = std::make_unique<LevelModel>(*L.f);
+    v.radius = m_radius;
     if (m_start_gradient) {
-      c.start_energy = &m_finest_energy;
-      c.start_gradient = m_start_gradient;
+      v.c.start_energy = &m_finest_energy;
+      v.c.start_gradient = m_start_gradient;
     }
+    return;
+  }
+  VecX g0;
+  v.f0 = L.f->value(v.x0);
+  L.f->gradient(v.x0, g0);
+  ++v.C.energy_evaluations;
+  ++v.C.gradient_assemblies;
+  if (galerkin) {
+    // Second order (beyond the paper): ∇²h(x₀) = Sᵀ ∇²h_{l+1} S, the Galerkin operator, so that near a minimizer
+    // the V-cycle is a two-grid method with the exact coarse operator whatever the coarse state's strains.
+    L.f->hessian(v.x0, L.delta_h, /*project_psd=*/false);
+    ++v.C.hessian_assemblies;
+    galerkin_difference(*galerkin, L.delta_h);
+    v.h = std::make_unique<LevelModel>(*L.f, *restricted - g0, v.x0, &L.delta_h);
   } else {
-    VecX g0;
-    f0 = L.f->value(x0);
-    L.f->gradient(x0, g0);
-    ++C.energy_evaluations;
-    ++C.gradient_assemblies;
-    if (galerkin) {
-      // Second order (beyond the paper): ∇²h(x₀) = Sᵀ ∇²h_{l+1} S, the Galerkin operator, so that near a minimizer
-      // the V-cycle is a two-grid method with the exact coarse operator whatever the coarse state's strains.
-      L.f->hessian(x0, L.delta_h, /*project_psd=*/false);
-      ++C.hessian_assemblies;
-      const auto& rows = L.delta_h.row_offsets();
-      const auto& cols = L.delta_h.col_indices();
-      for (Index i = 0; i < L.delta_h.rows(); ++i)
-        for (Index k = rows[i]; k < rows[i + 1]; ++k) {
-          const Index kg = galerkin->find(i, cols[k]);
-          const Mat3 gk = kg >= 0 ? galerkin->block(kg) : Mat3::Zero();
-          L.delta_h.block(k) = gk - L.delta_h.block(k);
-        }
-      h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0, &L.delta_h);
-    } else {
-      h = std::make_unique<LevelModel>(*L.f, *restricted - g0, x0);
-    }
-    c.start_energy = &f0;
-    c.start_gradient = restricted;
-    c.rel_grad = 0.0;
-    c.abs_grad = m_params.coarse_abs_grad > 0.0 ? m_params.coarse_abs_grad : base.abs_grad;
-    c.project = nullptr;
-    c.trace = nullptr;
-    radius = parent_radius;
-    // Alg. 4.3, lines 3-7: what is left of the fine radius for this level's further steps. (The printed
-    // condition of line 4 is inverted; the text says δ = 0 exactly when no room is left.)
-    c.radius_cap = [&, parent_radius](const VecX& xi, double r) {
-      const double d = L.norm(xi - x0);
-      return d < (1.0 - m_params.eps_delta) * parent_radius ? std::min(r, parent_radius - d) : 0.0;
-    };
+    v.h = std::make_unique<LevelModel>(*L.f, *restricted - g0, v.x0);
   }
-  const auto record = [&](double energy) {
-    if (really_finest && (m_finest_energies.empty() || energy != m_finest_energies.back()))
-      m_finest_energies.push_back(energy);
+  v.c.start_energy = &v.f0;
+  v.c.start_gradient = restricted;
+  v.c.rel_grad = 0.0;
+  v.c.abs_grad = m_params.coarse_abs_grad > 0.0 ? m_params.coarse_abs_grad : base.abs_grad;
+  v.c.project = nullptr;
+  v.c.trace = nullptr;
+  v.radius = parent_radius;
+  // Alg. 4.3, lines 3-7: what is left of the fine radius for this level's further steps. (The printed
+  // condition of line 4 is inverted; the text says δ = 0 exactly when no room is left.)
+  v.c.radius_cap = [this, &L, &x0 = v.x0, parent_radius](const VecX& xi, double r) {
+    const double d = L.norm(xi - x0);
+    return d < (1.0 - m_params.eps_delta) * parent_radius ? std::min(r, parent_radius - d) : 0.0;
   };
+}
 
-  // Line 2: pre-smoothing.
-  c.max_iters = coarsest ? (m_params.coarsest_iters > 0 ? m_params.coarsest_iters : m_params.pre_smoothing)
-                         : m_params.pre_smoothing;
-  const LocalTrResult r1 = L.tr->run(*h, x, radius, c);
-  if (!finest)
+void Rmtr::record(const Visit& v, double energy) {
+  if (v.really_finest && (m_finest_energies.empty() || energy != m_finest_energies.back()))
+    m_finest_energies.push_back(energy);
+}
+
+void Rmtr::note_finest(const Visit& v, const LocalTrResult& r) {
+  if (!v.finest) return;
+  m_finest_energy = v.fx;
+  if (r.status == "stalled") m_finest_stalled = true;
+  if (r.iterations > 0) m_finest_newton = v.L.tr->history().back().newton;
+  if (r.status == "stagnated") m_finest_stagnated = true;
+  record(v, v.fx);
+}
+
+Rmtr::CycleResult Rmtr::finish(Visit& v, bool converged) {
+  v.out.h_end = v.fx;
+  v.out.converged = converged;
+  if (v.finest) m_radius = v.radius;
+  return v.out;
+}
+
+LocalTrResult Rmtr::pre_smooth(Visit& v, VecX& x) {
+  Level& L = v.L;
+  v.c.max_iters = v.coarsest ? (m_params.coarsest_iters > 0 ? m_params.coarsest_iters : m_params.pre_smoothing)
+                             : m_params.pre_smoothing;
+  const LocalTrResult r1 = L.tr->run(*v.h, x, v.radius, v.c);
+  if (!v.finest)
     logger().debug("rmtr level {} pre-smoothing: {} after {} iterations, |g| {:.3e} -> {:.3e} (target {:.3e}), h {:.6e}",
-                   l, r1.status, r1.iterations, r1.initial_grad_norm, r1.grad_norm, r1.grad_target, r1.initial_energy);
-  CycleResult out;
-  out.h_start = r1.initial_energy;
-  out.h_end = r1.energy;
-  double fx = r1.energy;
-  if (finest) {
-    m_finest_energy = fx;
-    m_start_gradient = &L.tr->gradient();
-    if (r1.status == "stalled") m_finest_stalled = true;
-    if (r1.iterations > 0) m_finest_newton = L.tr->history().back().newton;
-    if (r1.status == "stagnated") m_finest_stagnated = true;
-    record(fx);
-  }
-  const auto finish = [&](bool converged) {
-    out.h_end = fx;
-    out.converged = converged;
-    if (finest) m_radius = radius;
-    return out;
-  };
-  if (r1.status == "converged") return finish(true);
-  if (r1.status == "radius_exhausted") {
-    ++C.radius_exhausted;
-    return finish(false);
-  }
-  if (r1.status == "time_limit") return finish(false);
+                   v.l, r1.status, r1.iterations, r1.initial_grad_norm, r1.grad_norm, r1.grad_target,
+                   r1.initial_energy);
+  v.out.h_start = r1.initial_energy;
+  v.out.h_end = r1.energy;
+  v.fx = r1.energy;
+  if (v.finest) m_start_gradient = &L.tr->gradient();
+  note_finest(v, r1);
+  return r1;
+}
 
+VecX Rmtr::coarse_start(int l, const VecX& x) {
+  Level& L = *m_levels[static_cast<size_t>(l)];
+  Level& Lc = *m_levels[static_cast<size_t>(l - 1)];
+  VecX xc0;
+  L.project(x, xc0);
+  if (m_params.coarse_start == "best" && Lc.last_end.size() == xc0.size()) {
+    // Any x₀ keeps first-order consistency (4.5), the correction being S(x − x₀); the lower coarse energy is the
+    // start whose model round-off does not swamp.
+    const double e_proj = Lc.f->value(xc0), e_kept = Lc.f->value(Lc.last_end);
+    m_counters[static_cast<size_t>(l - 1)].energy_evaluations += 2;
+    if (e_kept < e_proj || !std::isfinite(e_proj)) {
+      xc0 = Lc.last_end;
+      ++m_counters[static_cast<size_t>(l - 1)].starts_kept;
+    }
+  }
+  return xc0;
+}
+
+const linalg::BlockMatrix3* Rmtr::coarse_galerkin(Visit& v, const VecX& x) {
+  if (m_params.coarse_model != "second_order") return nullptr;
+  Level& L = v.L;
+  v.h->hessian(x, L.model_hessian);
+  ++v.C.hessian_assemblies;
+  if (!L.hessian_rap || L.rap_pattern != L.f->pattern_version()) {
+    L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, *L.S);
+    L.rap_pattern = L.f->pattern_version();
+  }
+  L.hessian_rap->compute(L.model_hessian, L.galerkin);
+  return &L.galerkin;
+}
+
+bool Rmtr::coarse_correction(Visit& v, VecX& x, const LocalTrControl& base) {
+  VecX gc;
+  v.L.S->apply_transpose(v.L.tr->gradient(), gc);
+  const VecX xc0 = coarse_start(v.l, x);
+  VecX xc = xc0;
+  const linalg::BlockMatrix3* galerkin = coarse_galerkin(v, x);
+  const CycleResult rc = visit(v.l - 1, xc, &gc, galerkin, v.radius, base);
+  if (m_params.coarse_start == "best") m_levels[static_cast<size_t>(v.l - 1)]->last_end = xc;
+  return test_correction(v, x, xc0, xc, rc);
+}
+
+bool Rmtr::test_correction(Visit& v, VecX& x, const VecX& xc0, const VecX& xc, const CycleResult& rc) {
+  const TrustRegionParams& p = m_params.tr;
+  RmtrCorrection corr;
+  corr.level = v.l;
+  corr.coarse_reduction = rc.h_start - rc.h_end;
+  corr.radius = v.radius;
   bool moved = false;
-  if (!coarsest) {
-    // Lines 4-12: the coarse correction from x^{l-1}_0 = P x (eq. 4.6) with the restricted gradient, in the
-    // current radius (eq. 4.8), prolongated (eq. 4.10) and tested by the multilevel ratio (eq. 4.11).
-    VecX gc, xc0;
-    L.S->apply_transpose(L.tr->gradient(), gc);
-    L.project(x, xc0);
-    Level& Lc = *m_levels[static_cast<size_t>(l - 1)];
-    if (m_params.coarse_start == "best" && Lc.last_end.size() == xc0.size()) {
-      // Any x₀ keeps first-order consistency (4.5), the correction being S(x − x₀); the lower coarse energy is the
-      // start whose model round-off does not swamp.
-      const double e_proj = Lc.f->value(xc0), e_kept = Lc.f->value(Lc.last_end);
-      m_counters[static_cast<size_t>(l - 1)].energy_evaluations += 2;
-      if (e_kept < e_proj || !std::isfinite(e_proj)) {
-        xc0 = Lc.last_end;
-        ++m_counters[static_cast<size_t>(l - 1)].starts_kept;
-      }
+  if (corr.coarse_reduction > 0.0) {
+    VecX s;
+    v.L.S->apply(VecX(xc - xc0), s);
+    corr.step_norm = v.L.norm(s);
+    VecX trial = x + s;
+    double ft = v.h->value(trial);
+    ++v.C.energy_evaluations;
+    corr.fine_reduction = v.fx - ft;
+    corr.rho = std::isfinite(ft) ? corr.fine_reduction / corr.coarse_reduction : -kInf;
+    corr.accepted = corr.rho > p.eta1;
+    if (!corr.accepted && m_params.correction_backtracking > 0) backtrack_correction(v, x, s, corr, trial, ft);
+    if (corr.accepted) {
+      x.swap(trial);
+      v.fx = ft;
+      moved = true;
+      ++v.C.corrections_accepted;
+      record(v, v.fx);
+    } else {
+      ++v.C.corrections_rejected;
     }
-    VecX xc = xc0;
-    const linalg::BlockMatrix3* coarse_galerkin = nullptr;
-    if (m_params.coarse_model == "second_order") {
-      h->hessian(x, L.model_hessian);
-      ++C.hessian_assemblies;
-      if (!L.hessian_rap || L.rap_pattern != L.f->pattern_version()) {
-        L.hessian_rap = std::make_unique<linalg::GalerkinProduct>(L.model_hessian, *L.S);
-        L.rap_pattern = L.f->pattern_version();
-      }
-      L.hessian_rap->compute(L.model_hessian, L.galerkin);
-      coarse_galerkin = &L.galerkin;
-    }
-    const CycleResult rc = visit(l - 1, xc, &gc, coarse_galerkin, radius, base);
-    if (m_params.coarse_start == "best") Lc.last_end = xc;
-    RmtrCorrection corr;
-    corr.level = l;
-    corr.coarse_reduction = rc.h_start - rc.h_end;
-    corr.radius = radius;
-    if (corr.coarse_reduction > 0.0) {
-      VecX s;
-      L.S->apply(VecX(xc - xc0), s);
-      corr.step_norm = L.norm(s);
-      VecX trial = x + s;
-      double ft = h->value(trial);
-      ++C.energy_evaluations;
-      corr.fine_reduction = fx - ft;
-      corr.rho = std::isfinite(ft) ? corr.fine_reduction / corr.coarse_reduction : -kInf;
-      corr.accepted = corr.rho > p.eta1;
-      if (!corr.accepted && m_params.correction_backtracking > 0) {
-        const double slope = L.tr->gradient().dot(s);  // ∇hᵀs at x, where pre-smoothing left the gradient
-        for (int k = 0; k < m_params.correction_backtracking && slope < 0.0; ++k) {
-          const double alpha = std::ldexp(1.0, -(k + 1));
-          trial = x + alpha * s;
-          const double fa = h->value(trial);
-          ++C.energy_evaluations;
-          if (std::isfinite(fa) && fx - fa >= -p.eta1 * alpha * slope) {
-            corr.accepted = true;
-            corr.fraction = alpha;
-            ft = fa;
-            ++C.corrections_backtracked;
-            break;
-          }
-        }
-      }
-      if (corr.accepted) {
-        x.swap(trial);
-        fx = ft;
-        moved = true;
-        ++C.corrections_accepted;
-        record(fx);
-      } else {
-        ++C.corrections_rejected;
-      }
-      // Line 12: Radius_update on this level, still bounded by the parent's radius.
-      radius = radius_update(p, corr.rho, radius, corr.step_norm);
-      if (c.radius_cap) radius = c.radius_cap(x, radius);
-    }
-    logger().debug("rmtr level {}: coarse reduction {:.3e}, fine {:.3e}, rho {:+.3e}, |s| {:.3e} of {:.3e}, {}", l,
-                   corr.coarse_reduction, corr.fine_reduction, corr.rho, corr.step_norm, corr.radius,
-                   !corr.accepted ? "rejected" : corr.fraction < 1.0 ? fmt::format("accepted at α = {}", corr.fraction)
-                                                                      : std::string("accepted"));
-    m_corrections.push_back(corr);
-    if (!(radius > 0.0)) {
-      ++C.radius_exhausted;
-      return finish(false);
+    // Line 12: Radius_update on this level, still bounded by the parent's radius.
+    v.radius = radius_update(p, corr.rho, v.radius, corr.step_norm);
+    if (v.c.radius_cap) v.radius = v.c.radius_cap(x, v.radius);
+  }
+  logger().debug("rmtr level {}: coarse reduction {:.3e}, fine {:.3e}, rho {:+.3e}, |s| {:.3e} of {:.3e}, {}", v.l,
+                 corr.coarse_reduction, corr.fine_reduction, corr.rho, corr.step_norm, corr.radius,
+                 !corr.accepted ? "rejected" : corr.fraction < 1.0 ? fmt::format("accepted at α = {}", corr.fraction)
+                                                                    : std::string("accepted"));
+  m_corrections.push_back(corr);
+  return moved;
+}
+
+void Rmtr::backtrack_correction(Visit& v, const VecX& x, const VecX& s, RmtrCorrection& corr, VecX& trial,
+                                double& ft) {
+  const TrustRegionParams& p = m_params.tr;
+  const double slope = v.L.tr->gradient().dot(s);  // ∇hᵀs at x, where pre-smoothing left the gradient
+  for (int k = 0; k < m_params.correction_backtracking && slope < 0.0; ++k) {
+    const double alpha = std::ldexp(1.0, -(k + 1));
+    trial = x + alpha * s;
+    const double fa = v.h->value(trial);
+    ++v.C.energy_evaluations;
+    if (std::isfinite(fa) && v.fx - fa >= -p.eta1 * alpha * slope) {
+      corr.accepted = true;
+      corr.fraction = alpha;
+      ft = fa;
+      ++v.C.corrections_backtracked;
+      break;
     }
   }
+}
 
-  // Lines 13-17: post-smoothing; its first test is the termination of line 13.
-  LocalTrControl c2 = c;
-  c2.max_iters = coarsest ? (m_params.coarsest_iters > 0 ? 0 : m_params.post_smoothing) : m_params.post_smoothing;
-  double f_here = fx;
+Rmtr::CycleResult Rmtr::post_smooth(Visit& v, VecX& x, bool moved) {
+  LocalTrControl c2 = v.c;
+  c2.max_iters = v.coarsest ? (m_params.coarsest_iters > 0 ? 0 : m_params.post_smoothing) : m_params.post_smoothing;
+  double f_here = v.fx;
   if (!moved) {
     // x is where pre-smoothing ended: its energy and gradient are known.
     c2.start_energy = &f_here;
-    c2.start_gradient = &L.tr->gradient();
+    c2.start_gradient = &v.L.tr->gradient();
   } else {
     c2.start_energy = nullptr;
     c2.start_gradient = nullptr;
   }
-  if (c2.max_iters == 0 && !moved) return finish(false);
-  const LocalTrResult r2 = L.tr->run(*h, x, radius, c2);
-  fx = r2.energy;
-  if (finest) {
-    m_finest_energy = fx;
-    if (r2.status == "stalled") m_finest_stalled = true;
-    if (r2.iterations > 0) m_finest_newton = L.tr->history().back().newton;
-    if (r2.status == "stagnated") m_finest_stagnated = true;
-    record(fx);
+  if (c2.max_iters == 0 && !moved) return finish(v, false);
+  const LocalTrResult r2 = v.L.tr->run(*v.h, x, v.radius, c2);
+  v.fx = r2.energy;
+  note_finest(v, r2);
+  if (r2.status == "radius_exhausted") ++v.C.radius_exhausted;
+  return finish(v, r2.status == "converged");
+}
+
+Rmtr::CycleResult Rmtr::visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin,
+                               double parent_radius, const LocalTrControl& base) {
+  Visit v{.l = l,
+          .L = *m_levels[static_cast<size_t>(l)],
+          .C = m_counters[static_cast<size_t>(l)],
+          .finest = l == m_top,
+          .coarsest = l == 0,
+          .really_finest = l == static_cast<int>(m_levels.size()) - 1,
+          .x0 = x};
+  ++v.C.visits;
+
+  // Line 1: the level's model h_l (eq. 4.3) with δg of eq. 4.4; its gradient at x₀ is the restricted one (4.5).
+  build_model(v, restricted, galerkin, parent_radius, base);
+
+  // Line 2: pre-smoothing.
+  const LocalTrResult r1 = pre_smooth(v, x);
+  if (r1.status == "converged") return finish(v, true);
+  if (r1.status == "radius_exhausted") {
+    ++v.C.radius_exhausted;
+    return finish(v, false);
   }
-  if (r2.status == "radius_exhausted") ++C.radius_exhausted;
-  return finish(r2.status == "converged");
+  if (r1.status == "time_limit") return finish(v, false);
+
+  bool moved = false;
+  if (!v.coarsest) {
+    // Lines 4-12: the coarse correction from x^{l-1}_0 = P x (eq. 4.6) with the restricted gradient, in the
+    // current radius (eq. 4.8), prolongated (eq. 4.10) and tested by the multilevel ratio (eq. 4.11).
+    moved = coarse_correction(v, x, base);
+    if (!(v.radius > 0.0)) {
+      ++v.C.radius_exhausted;
+      return finish(v, false);
+    }
+  }
+
+  // Lines 13-17: post-smoothing; its first test is the termination of line 13.
+  return post_smooth(v, x, moved);
 }
 
 void Rmtr::accumulate() {

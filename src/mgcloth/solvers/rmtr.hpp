@@ -156,6 +156,31 @@ class Rmtr final : public NonlinearSolver {
   /// `galerkin`: Sᵀ ∇²h_{l+1} S for a second-order coarse model (null: first order, eq. 4.3).
   CycleResult visit(int l, VecX& x, const VecX* restricted, const linalg::BlockMatrix3* galerkin, double parent_radius,
                     const LocalTrControl& base);
+  // The steps of a visit, in the order of Alg. 4.2.
+  struct Visit;
+  /// Line 1: the model h_l (eq. 4.3; the top level's own objective) and its Local_TR control with the radius cap of
+  /// Alg. 4.3, lines 3-7.
+  void build_model(Visit& v, const VecX* restricted, const linalg::BlockMatrix3* galerkin, double parent_radius,
+                   const LocalTrControl& base);
+  /// Line 2: μ1 Local_TR iterations (the coarsest level: coarsest_iters).
+  LocalTrResult pre_smooth(Visit& v, VecX& x);
+  /// Lines 4-12: the coarse correction (visiting level l − 1) tested by eq. 4.11 and the radius update; whether x
+  /// moved.
+  bool coarse_correction(Visit& v, VecX& x, const LocalTrControl& base);
+  /// x^{l-1}_0: P x (eq. 4.6), or with coarse_start "best" the level's last end point where its energy is lower.
+  VecX coarse_start(int l, const VecX& x);
+  /// A second-order coarse model's Sᵀ ∇²h_l S for level l − 1 (null for first-order models).
+  const linalg::BlockMatrix3* coarse_galerkin(Visit& v, const VecX& x);
+  /// The prolongated correction S(xc − xc0) tested by the multilevel ratio (eq. 4.11); accepted, it moves x.
+  bool test_correction(Visit& v, VecX& x, const VecX& xc0, const VecX& xc, const CycleResult& rc);
+  /// correction_backtracking: a rejected correction retried as x + αs with Armijo decrease.
+  void backtrack_correction(Visit& v, const VecX& x, const VecX& s, RmtrCorrection& corr, VecX& trial, double& ft);
+  /// Lines 13-17: μ2 Local_TR iterations, whose first test is the termination of line 13.
+  CycleResult post_smooth(Visit& v, VecX& x, bool moved);
+  /// The top level's bookkeeping after a Local_TR run (energy, stalls, Newton steps) and the finest energies.
+  void note_finest(const Visit& v, const LocalTrResult& r);
+  void record(const Visit& v, double energy);
+  CycleResult finish(Visit& v, bool converged);
   void accumulate();
   /// Nested iteration (params.initial == "nested"): improves the finest iterate x by solving every coarser level's
   /// problem in turn, coarsest first.

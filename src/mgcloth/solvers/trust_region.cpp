@@ -87,97 +87,218 @@ linalg::QpResult LocalTrustRegion::solve_qp(double radius, double initial_grad_n
   return r;
 }
 
-LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius, const LocalTrControl& control) {
-  const TrustRegionParams& p = m_params;
-  Timer own_clock;
-  const Timer& clock = control.timer ? *control.timer : own_clock;
-  LocalTrResult res;
-  double f = 0.0;
+/// One run's state: the model, its control and clock, the current energy and gradient norm, and what the stopping
+/// tests need to know of the last iteration.
+struct LocalTrustRegion::Run {
+  const LevelModel& h;
+  const LocalTrControl& control;
+  const Timer& clock;
+  LocalTrResult res{};
+  double f = 0.0, gnorm = 0.0;
+  bool have_hessian = false;  ///< m_hessian (and the QP solver's preparation) is at the current x
+  // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1), and whether it was a Newton step.
+  double last_df = kInf, last_dx = kInf, last_radius = 0.0;
+  bool last_newton = false;
+  double last_checkpoint = 0.0;
+};
+
+/// How one trial point x + s was judged.
+struct LocalTrustRegion::Verdict {
+  bool stalled = false;              ///< no decrease left in floating point: the run ends
+  double f_trial = 0.0;
+  double next_radius = 0.0;
+  bool have_trial_gradient = false;  ///< m_g_trial is ∇h(x + s)
+  bool newton_step = false;
+  bool limiting_accuracy = false;    ///< an accepted Newton step whose decrease is round-off: the run ends
+};
+
+void LocalTrustRegion::start(Run& r, const VecX& x) {
+  const LocalTrControl& control = r.control;
   if (control.start_energy) {
-    f = *control.start_energy;
+    r.f = *control.start_energy;
   } else {
-    f = h.value(x);
+    r.f = r.h.value(x);
     ++m_counters.energy_evaluations;
   }
   if (control.start_gradient) {
     if (control.start_gradient != &m_g) m_g = *control.start_gradient;
   } else {
-    h.gradient(x, m_g);
+    r.h.gradient(x, m_g);
     ++m_counters.gradient_assemblies;
   }
-  double gnorm = m_g.norm();
-  check_finite(m_name, f, gnorm, 0);
-  res.initial_grad_norm = gnorm;
-  res.initial_energy = f;
-  res.grad_target = std::max(control.abs_grad, control.rel_grad * gnorm);
-  if (control.trace) control.trace->push_back({0, f, gnorm, clock.ms(), 0.0});
-  bool have_hessian = false;
-  // |Δf|, ‖Δx‖ and Δ of the last iteration, for the second part of criterion (7.1), and whether it was a Newton step.
-  double last_df = kInf, last_dx = kInf, last_radius = 0.0;
-  bool last_newton = false;
-  double last_checkpoint = clock.seconds();
-  res.status = "max_iters";
+  r.gnorm = m_g.norm();
+  check_finite(m_name, r.f, r.gnorm, 0);
+  r.res.initial_grad_norm = r.gnorm;
+  r.res.initial_energy = r.f;
+  r.res.grad_target = std::max(control.abs_grad, control.rel_grad * r.gnorm);
+  if (control.trace) control.trace->push_back({0, r.f, r.gnorm, r.clock.ms(), 0.0});
+  r.last_checkpoint = r.clock.seconds();
+  r.res.status = "max_iters";
+}
+
+bool LocalTrustRegion::stops(Run& r, const VecX& x, double radius) const {
+  const TrustRegionParams& p = m_params;
+  if (r.gnorm <= r.res.grad_target) r.res.status = "converged";
+  else if (r.clock.seconds() > r.control.max_seconds) r.res.status = "time_limit";
+  else if (r.control.interruptible && interrupted()) r.res.status = "interrupted";
+  else if ((r.last_radius > p.stagnation_delta || r.last_newton) &&
+           (r.last_df < p.stagnation_tol || r.last_dx < p.stagnation_tol))
+    r.res.status = "stagnated";
+  // A radius below the round-off of x cannot move it: no decrease is possible in floating point.
+  else if (!(radius > 1e-15 * x.lpNorm<Eigen::Infinity>()) || radius < std::numeric_limits<double>::min())
+    r.res.status = "stalled";
+  return r.res.status != "max_iters";
+}
+
+void LocalTrustRegion::prepare_model(Run& r, const VecX& x, int i) {
+  const TrustRegionParams& p = m_params;
+  const linalg::NormMetric* metric = r.control.metric;
+  r.h.hessian(x, m_hessian, p.psd_hessian);
+  ++m_counters.hessian_assemblies;
+  m_model_exact = !p.psd_hessian;
+  if (p.qp == TrQp::Dogleg) {
+    const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
+    try {
+      m_dogleg.set_shift_bisections(p.shift_bisections);
+      m_dogleg.set_radius_shift(p.radius_shift);
+      if (!p.hybrid_hessian || p.psd_hessian) {
+        m_dogleg.prepare(m_hessian, m_g, metric);
+      } else if (!m_dogleg.prepare_definite(m_hessian, m_g, metric)) {
+        // Indefinite: every element Hessian projected to positive semidefinite convexifies only where the
+        // energy is concave, where H + λI damps every direction alike by λ.
+        r.h.hessian(x, m_hessian, true);
+        ++m_counters.hessian_assemblies;
+        ++m_counters.projected_models;
+        m_model_exact = false;
+        m_dogleg.prepare(m_hessian, m_g, metric);
+      }
+    } catch (const SolveError& e) {
+      throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+    }
+    m_counters.factorizations += m_dogleg.factorizations() - before;
+    m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
+  }
+  if (p.qp == TrQp::Exact) {
+    try {
+      m_exact.prepare(m_hessian, m_g, metric);
+    } catch (const SolveError& e) {  // a failed decomposition; a level too large for it stays a usage Error
+      throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+    }
+  }
+  if (p.qp == TrQp::Schwarz) {
+    if (!m_patches) throw Error(fmt::format("{}: the Schwarz smoother has no patches", m_name));
+    m_patches->set_matrix(m_hessian);
+  }
+  if (p.qp == TrQp::GaussSeidel) {
+    if (!m_gs) m_gs = std::make_unique<linalg::MultiColorGaussSeidel>(m_hessian);
+    try {
+      m_gs->set_matrix(m_hessian);
+    } catch (const SolveError& e) {
+      throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
+    }
+  }
+  r.have_hessian = true;
+}
+
+LocalTrustRegion::Verdict LocalTrustRegion::judge_trial(Run& r, const VecX& x, const linalg::QpResult& qp,
+                                                       TrIteration& it, double radius) {
+  const TrustRegionParams& p = m_params;
+  Verdict v;
+  m_trial = x + qp.s;
+  v.f_trial = r.h.value(m_trial);
+  ++m_counters.energy_evaluations;
+  it.actual = r.f - v.f_trial;
+  it.rho = std::isfinite(v.f_trial) ? it.actual / qp.model_decrease : -kInf;
+  v.next_radius = radius;
+  v.newton_step = qp.reason == linalg::QpStop::Converged && m_model_exact &&
+                  ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
+  if (std::isfinite(v.f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(r.f)) {
+    // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
+    // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken and
+    // ends the solve as "stagnated", the limiting accuracy of (7.1)'s second clause: its predicted decrease is
+    // the Newton decrement ½gᵀH⁻¹g of a positive definite H, so no more than round-off of the energy is left
+    // to gain (a scale-free form of |Δf| < 1e-12, which the coarse levels' energies of 1e6 J never meet).
+    r.h.gradient(m_trial, m_g_trial);
+    ++m_counters.gradient_assemblies;
+    v.have_trial_gradient = true;
+    if (!(m_g_trial.norm() < r.gnorm) && !v.newton_step) {
+      v.stalled = true;
+      return v;
+    }
+    it.accepted = true;
+    v.limiting_accuracy = v.newton_step;
+  } else {
+    // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
+    it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
+    v.next_radius = radius_update(p, it.rho, radius, it.step_norm);
+  }
+  return v;
+}
+
+void LocalTrustRegion::extrapolate(Run& r, VecX& x, const VecX& s, TrIteration& it) {
+  double scale = 1.0;
+  for (int j = 0; j < m_params.extrapolate; ++j) {
+    m_trial = x + scale * s;  // doubles the total step
+    const double fe = r.h.value(m_trial);
+    ++m_counters.energy_evaluations;
+    if (!(std::isfinite(fe) && fe < r.f)) break;
+    x.swap(m_trial);
+    it.actual += r.f - fe;
+    r.f = fe;
+    scale *= 2.0;
+    ++m_counters.extrapolations;
+  }
+  it.step_norm *= scale;
+}
+
+void LocalTrustRegion::accept(Run& r, VecX& x, const linalg::QpResult& qp, TrIteration& it, const Verdict& v, int i) {
+  const LocalTrControl& control = r.control;
+  ++m_counters.accepted;
+  x.swap(m_trial);
+  r.f = v.f_trial;
+  if (m_params.extrapolate > 0 && it.rho > 1.0 && !v.have_trial_gradient) extrapolate(r, x, qp.s, it);
+  const bool moved = control.project && control.project(x) > 0;
+  if (moved) {
+    r.f = r.h.value(x);
+    ++m_counters.energy_evaluations;
+  }
+  if (v.have_trial_gradient && !moved) {
+    m_g.swap(m_g_trial);
+  } else {
+    r.h.gradient(x, m_g);
+    ++m_counters.gradient_assemblies;
+  }
+  r.gnorm = m_g.norm();
+  check_finite(m_name, r.f, r.gnorm, i + 1);
+  r.have_hessian = false;
+  if (control.checkpoint && r.clock.seconds() - r.last_checkpoint >= control.checkpoint_seconds) {
+    control.checkpoint(x, i + 1, r.f, r.gnorm);
+    r.last_checkpoint = r.clock.seconds();
+  }
+  r.last_df = std::abs(it.actual);
+  r.last_dx = it.step_norm;
+  it.newton = v.newton_step;
+  r.last_newton = it.newton;
+}
+
+void LocalTrustRegion::reject(Run& r) {
+  // (7.1)'s second clause guards against meandering by tiny accepted steps; a rejected step leaves x as it was
+  // but says nothing about convergence (far from a minimum it is a step into an infeasible or badly modelled
+  // region), so it does not trigger the clause.
+  ++m_counters.rejected;
+  r.last_df = r.last_dx = kInf;
+  r.last_newton = false;
+}
+
+LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius, const LocalTrControl& control) {
+  Timer own_clock;
+  Run r{.h = h, .control = control, .clock = control.timer ? *control.timer : own_clock};
+  start(r, x);
   int i = 0;
   for (; i < control.max_iters; ++i) {
-    if (gnorm <= res.grad_target) res.status = "converged";
-    else if (clock.seconds() > control.max_seconds) res.status = "time_limit";
-    else if (control.interruptible && interrupted()) res.status = "interrupted";
-    else if ((last_radius > p.stagnation_delta || last_newton) &&
-             (last_df < p.stagnation_tol || last_dx < p.stagnation_tol))
-      res.status = "stagnated";
-    // A radius below the round-off of x cannot move it: no decrease is possible in floating point.
-    else if (!(radius > 1e-15 * x.lpNorm<Eigen::Infinity>()) || radius < std::numeric_limits<double>::min())
-      res.status = "stalled";
-    if (res.status != "max_iters") break;
-
-    if (!have_hessian) {
-      h.hessian(x, m_hessian, p.psd_hessian);
-      ++m_counters.hessian_assemblies;
-      m_model_exact = !p.psd_hessian;
-      if (p.qp == TrQp::Dogleg) {
-        const int before = m_dogleg.factorizations(), fallbacks = m_dogleg.fallbacks();
-        try {
-          m_dogleg.set_shift_bisections(p.shift_bisections);
-          m_dogleg.set_radius_shift(p.radius_shift);
-          if (!p.hybrid_hessian || p.psd_hessian) {
-            m_dogleg.prepare(m_hessian, m_g, control.metric);
-          } else if (!m_dogleg.prepare_definite(m_hessian, m_g, control.metric)) {
-            // Indefinite: every element Hessian projected to positive semidefinite convexifies only where the
-            // energy is concave, where H + λI damps every direction alike by λ.
-            h.hessian(x, m_hessian, true);
-            ++m_counters.hessian_assemblies;
-            ++m_counters.projected_models;
-            m_model_exact = false;
-            m_dogleg.prepare(m_hessian, m_g, control.metric);
-          }
-        } catch (const SolveError& e) {
-          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
-        }
-        m_counters.factorizations += m_dogleg.factorizations() - before;
-        m_counters.cholmod_fallbacks += m_dogleg.fallbacks() - fallbacks;
-      }
-      if (p.qp == TrQp::Exact) {
-        try {
-          m_exact.prepare(m_hessian, m_g, control.metric);
-        } catch (const SolveError& e) {  // a failed decomposition; a level too large for it stays a usage Error
-          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
-        }
-      }
-      if (p.qp == TrQp::Schwarz) {
-        if (!m_patches) throw Error(fmt::format("{}: the Schwarz smoother has no patches", m_name));
-        m_patches->set_matrix(m_hessian);
-      }
-      if (p.qp == TrQp::GaussSeidel) {
-        if (!m_gs) m_gs = std::make_unique<linalg::MultiColorGaussSeidel>(m_hessian);
-        try {
-          m_gs->set_matrix(m_hessian);
-        } catch (const SolveError& e) {
-          throw SolveError(fmt::format("{}: iteration {}: {}", m_name, i, e.what()));
-        }
-      }
-      have_hessian = true;
-    }
-    const auto qp = solve_qp(radius, res.initial_grad_norm, control.metric);
+    if (stops(r, x, radius)) break;
+    if (!r.have_hessian) prepare_model(r, x, i);
+    const auto qp = solve_qp(radius, r.res.initial_grad_norm, control.metric);
     TrIteration it;
     it.radius = radius;
     it.predicted = qp.model_decrease;
@@ -188,114 +309,42 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       throw SolveError(fmt::format("{}: non-finite model decrease at iteration {} (Hessian not finite?)", m_name, i));
     // SDC makes the predicted decrease positive whenever g ≠ 0; a non-positive one is all round-off.
     if (!(qp.model_decrease > 0.0)) {
-      res.status = "stalled";
+      r.res.status = "stalled";
       break;
     }
-    m_trial = x + qp.s;
-    const double f_trial = h.value(m_trial);
-    ++m_counters.energy_evaluations;
-    it.actual = f - f_trial;
-    it.rho = std::isfinite(f_trial) ? it.actual / qp.model_decrease : -kInf;
-    bool have_trial_gradient = false, limiting_accuracy = false;
-    double next = radius;
-    const bool newton_step = qp.reason == linalg::QpStop::Converged && m_model_exact &&
-                             ((p.qp == TrQp::Dogleg && m_dogleg.shift() == 0.0) || p.qp == TrQp::Exact);
-    if (std::isfinite(f_trial) && qp.model_decrease < p.roundoff_tol * std::abs(f)) {
-      // The energy difference is round-off, so ρ is noise: the step is judged by the gradient norm, and Δ kept.
-      // Where even the gradient no longer decreases, the limiting accuracy is reached. A Newton step is taken and
-      // ends the solve as "stagnated", the limiting accuracy of (7.1)'s second clause: its predicted decrease is
-      // the Newton decrement ½gᵀH⁻¹g of a positive definite H, so no more than round-off of the energy is left
-      // to gain (a scale-free form of |Δf| < 1e-12, which the coarse levels' energies of 1e6 J never meet).
-      h.gradient(m_trial, m_g_trial);
-      ++m_counters.gradient_assemblies;
-      have_trial_gradient = true;
-      if (!(m_g_trial.norm() < gnorm) && !newton_step) {
-        res.status = "stalled";
-        break;
-      }
-      it.accepted = true;
-      limiting_accuracy = newton_step;
-    } else {
-      // A non-finite trial energy (an exploded or inverted state) has ρ = −∞: rejected, the radius shrinks.
-      it.accepted = it.rho > p.eta1;  // Alg. 4.1, line 4
-      next = radius_update(p, it.rho, radius, it.step_norm);
+    const Verdict v = judge_trial(r, x, qp, it, radius);
+    if (v.stalled) {
+      r.res.status = "stalled";
+      break;
     }
-    double step_taken = 0.0;
-    if (it.accepted) {
-      ++m_counters.accepted;
-      x.swap(m_trial);
-      f = f_trial;
-      if (p.extrapolate > 0 && it.rho > 1.0 && !have_trial_gradient) {
-        double scale = 1.0;
-        for (int j = 0; j < p.extrapolate; ++j) {
-          m_trial = x + scale * qp.s;  // doubles the total step
-          const double fe = h.value(m_trial);
-          ++m_counters.energy_evaluations;
-          if (!(std::isfinite(fe) && fe < f)) break;
-          x.swap(m_trial);
-          it.actual += f - fe;
-          f = fe;
-          scale *= 2.0;
-          ++m_counters.extrapolations;
-        }
-        it.step_norm *= scale;
-      }
-      const bool moved = control.project && control.project(x) > 0;
-      if (moved) {
-        f = h.value(x);
-        ++m_counters.energy_evaluations;
-      }
-      if (have_trial_gradient && !moved) {
-        m_g.swap(m_g_trial);
-      } else {
-        h.gradient(x, m_g);
-        ++m_counters.gradient_assemblies;
-      }
-      gnorm = m_g.norm();
-      check_finite(m_name, f, gnorm, i + 1);
-      have_hessian = false;
-      if (control.checkpoint && clock.seconds() - last_checkpoint >= control.checkpoint_seconds) {
-        control.checkpoint(x, i + 1, f, gnorm);
-        last_checkpoint = clock.seconds();
-      }
-      step_taken = it.step_norm;
-      last_df = std::abs(it.actual);
-      last_dx = it.step_norm;
-      it.newton = newton_step;
-      last_newton = it.newton;
-    } else {
-      // (7.1)'s second clause guards against meandering by tiny accepted steps; a rejected step leaves x as it was
-      // but says nothing about convergence (far from a minimum it is a step into an infeasible or badly modelled
-      // region), so it does not trigger the clause.
-      ++m_counters.rejected;
-      last_df = last_dx = kInf;
-      last_newton = false;
-    }
-    last_radius = radius;
-    if (control.radius_cap) next = control.radius_cap(x, next);
+    if (it.accepted) accept(r, x, qp, it, v, i);
+    else reject(r);
+    const double next = control.radius_cap ? control.radius_cap(x, v.next_radius) : v.next_radius;
+    r.last_radius = radius;
     it.next_radius = next;
     m_history.push_back(it);
-    if (control.trace) control.trace->push_back({i + 1, f, gnorm, clock.ms(), step_taken});
+    if (control.trace) control.trace->push_back({i + 1, r.f, r.gnorm, r.clock.ms(), it.accepted ? it.step_norm : 0.0});
     logger().debug("tr {:4d}: {} rho = {:+.3e}  E = {:.12e}  |g| = {:.3e}  radius {:.3e} -> {:.3e}  |s| = {:.3e} ({}){}",
-                   i + 1, it.accepted ? "accept" : "reject", it.rho, f, gnorm, radius, next, it.step_norm,
+                   i + 1, it.accepted ? "accept" : "reject", it.rho, r.f, r.gnorm, radius, next, it.step_norm,
                    linalg::to_string(qp.reason),
-                   p.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift()) : "");
+                   m_params.qp == TrQp::Dogleg && m_dogleg.shift() > 0.0 ? fmt::format("  shift {:.2e}", m_dogleg.shift())
+                                                                        : "");
     radius = next;
-    if (limiting_accuracy) {
+    if (v.limiting_accuracy) {
       ++i;
-      res.status = "stagnated";
+      r.res.status = "stagnated";
       break;
     }
     if (!(radius > 0.0)) {
       ++i;
-      res.status = "radius_exhausted";
+      r.res.status = "radius_exhausted";
       break;
     }
   }
-  res.iterations = i;
-  res.energy = f;
-  res.grad_norm = gnorm;
-  return res;
+  r.res.iterations = i;
+  r.res.energy = r.f;
+  r.res.grad_norm = r.gnorm;
+  return r.res;
 }
 
 TrustRegion::TrustRegion(TrustRegionParams params, std::string name)

@@ -194,6 +194,24 @@ class LocalTrustRegion {
  private:
   /// Solves subproblem (4.1) at the current point with radius Δ in the norm of `metric` (ℓ2 when null).
   linalg::QpResult solve_qp(double radius, double initial_grad_norm, const linalg::NormMetric* metric);
+  // The steps of run(), one Alg. 4.1 iteration after the other.
+  struct Run;
+  struct Verdict;
+  /// The energy and gradient at the start (given or evaluated), the gradient target and the trace's first row.
+  void start(Run& r, const VecX& x);
+  /// The stopping tests before an iteration: the gradient target, time, interruption, (7.1)'s second clause, a
+  /// radius below round-off. Sets the run's status; true when it stops.
+  bool stops(Run& r, const VecX& x, double radius) const;
+  /// The Hessian at x and the subproblem solver's preparation (factorization, smoother), once per accepted point.
+  void prepare_model(Run& r, const VecX& x, int i);
+  /// Evaluates x + s: ρ of eq. 4.2 and acceptance (Alg. 4.1, line 4), or the gradient test where the decrease is
+  /// round-off; the next radius.
+  Verdict judge_trial(Run& r, const VecX& x, const linalg::QpResult& qp, TrIteration& it, double radius);
+  /// Moves x to the accepted trial point (extrapolated, projected) and updates energy, gradient and checkpoint.
+  void accept(Run& r, VecX& x, const linalg::QpResult& qp, TrIteration& it, const Verdict& v, int i);
+  /// p.extrapolate: doubles an accepted step while the energy keeps decreasing.
+  void extrapolate(Run& r, VecX& x, const VecX& s, TrIteration& it);
+  void reject(Run& r);
 
   TrustRegionParams m_params;
   std::string m_name;

@@ -1,4 +1,4 @@
-#include <mgcloth/sim/cantilever.hpp>
+#include <mgcloth/studies/cantilever.hpp>
 
 #include <mgcloth/core/error.hpp>
 
@@ -16,7 +16,7 @@
 #include <map>
 #include <numbers>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 namespace {
 constexpr int kSteps = 4000;  // RK4 steps along the strip: the shooting error is far below 1e-6 of the deflection
@@ -283,4 +283,4 @@ CantileverResult cantilever(const Strip& strip, const physics::Material& materia
   return r;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

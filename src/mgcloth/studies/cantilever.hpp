@@ -8,7 +8,7 @@
 
 #include <vector>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 /// The elastica's deflection z(s) ≥ 0 below the clamp at arc lengths `s` (each in [0, L]), for rigidity B (N·m per
 /// unit width) and weight w (N/m² : per unit length per unit width). Shooting on θ'(0) with RK4 steps.
@@ -49,4 +49,4 @@ struct CantileverResult {
 };
 CantileverResult cantilever(const Strip& strip, const physics::Material& material, double clamp, double tip);
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

@@ -1,15 +1,15 @@
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
-#include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/studies/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
-#include <mgcloth/sim/timestep_bench.hpp>
+#include <mgcloth/studies/timestep_bench.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <memory>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 namespace {
 
@@ -29,7 +29,7 @@ void check_options(const TimestepBenchOptions& opt) {
   timestep_ladder(opt);
 }
 
-double window_of(const Scene& scene, const TimestepBenchOptions& opt) {
+double window_of(const sim::Scene& scene, const TimestepBenchOptions& opt) {
   if (opt.window > 0.0) return opt.window;
   return std::min(scene.frames * scene.frame_time, TimestepBenchOptions::kDefaultWindowCap);
 }
@@ -39,13 +39,13 @@ int steps_for(double window, double dt) {
   return std::max(1, static_cast<int>(std::ceil(window / dt * (1.0 - 1e-12))));
 }
 
-TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double dt, const TimestepBenchOptions& opt) {
+TimestepBenchRow try_time_step(const sim::Scene& base, const SolverSpec& spec, double dt, const TimestepBenchOptions& opt) {
   ShellBenchOptions caps;
   caps.time_step = dt;
   caps.max_iters = opt.max_iters;
   caps.max_seconds = opt.max_seconds;
   caps.threads = opt.threads;
-  Scene scene = shell_bench_scene(base, opt.level, spec, caps);
+  sim::Scene scene = shell_bench_scene(base, opt.level, spec, caps);
   TimestepBenchRow row;
   row.scene = base.file;
   row.solver = spec.label;
@@ -62,16 +62,16 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
     row.message = e.what();
     logger().warn("{} dt = {:g}: {}", row.solver, dt, e.what());
   };
-  std::unique_ptr<Simulator> owned;
+  std::unique_ptr<sim::Simulator> owned;
   try {
-    owned = std::make_unique<Simulator>(scene);
+    owned = std::make_unique<sim::Simulator>(scene);
   } catch (const InputError&) {
     throw;
   } catch (const Error& e) {
     cannot_run(1, e);
     return row;
   }
-  Simulator& sim = *owned;
+  sim::Simulator& sim = *owned;
   for (const auto& sh : sim.shells()) {
     row.shells += (row.shells.empty() ? "" : "+") + sh->name();
     row.dofs += static_cast<Index>(sh->x().size());
@@ -85,7 +85,7 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
       break;
     }
     ++row.steps_run;
-    std::vector<StepStats> stats;
+    std::vector<sim::StepStats> stats;
     try {
       stats = sim.step();
     } catch (const SolveError& e) {
@@ -101,7 +101,7 @@ TimestepBenchRow try_time_step(const Scene& base, const SolverSpec& spec, double
       break;
     }
     int step_iterations = 0;
-    for (const StepStats& s : stats) {
+    for (const sim::StepStats& s : stats) {
       const solvers::SolveReport& r = s.report;
       step_iterations += r.iterations;
       if (row.failed_step > 0) continue;
@@ -144,17 +144,17 @@ std::vector<double> timestep_ladder(const TimestepBenchOptions& opt) {
   return dts;
 }
 
-std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scenes, const TimestepBenchOptions& opt,
+std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<sim::Scene>& scenes, const TimestepBenchOptions& opt,
                                                  const TimestepBenchProgress& on_row,
                                                  const std::vector<TimestepBenchRow>& previous) {
   check_options(opt);
-  for (const Scene& s : scenes)
+  for (const sim::Scene& s : scenes)
     if (s.shells.empty()) throw_input_error("{}: the scene has no shells", s.file);
   if (opt.threads > 0) set_num_threads(opt.threads);
   const std::vector<double> dts = timestep_ladder(opt);
   std::vector<TimestepBenchRow> rows;
   // A try that ran longer than the try cap allows would have ended differently under it.
-  const auto earlier = [&](const Scene& base, const SolverSpec& spec, double dt) -> const TimestepBenchRow* {
+  const auto earlier = [&](const sim::Scene& base, const SolverSpec& spec, double dt) -> const TimestepBenchRow* {
     for (const TimestepBenchRow& r : previous)
       if (r.scene == base.file && r.solver == spec.label && r.time_step == dt &&
           r.level == (opt.level > 0 ? opt.level : base.shells.front().level) && r.window == window_of(base, opt) &&
@@ -162,7 +162,7 @@ std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scene
         return &r;
     return nullptr;
   };
-  for (const Scene& base : scenes)
+  for (const sim::Scene& base : scenes)
     for (const SolverSpec& spec : opt.solvers)
       for (double dt : dts) {
         if (const TimestepBenchRow* r = earlier(base, spec, dt)) {
@@ -270,4 +270,4 @@ std::vector<TimestepBenchRow> timestep_bench_rows(const Json& json) {
   return rows;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

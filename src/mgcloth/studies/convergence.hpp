@@ -1,5 +1,5 @@
 #pragma once
-// Solver benchmarks on the objectives of a scene (ARCHITECTURE.md, "Benchmarks freeze the objective of one step"):
+// Solver benchmarks on the objectives of a scene (docs/ARCHITECTURE.md, "Data flow": studies freeze one step):
 // convergence of several solvers on one frozen step, measured by the relative energy error against time (Wang
 // 2018, Fig. 4), and the scalability of one solver with the cloth's vertex count.
 #include <mgcloth/sim/simulator.hpp>
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 /// A solver with its parameters, as written on the command line: "NAME" or "NAME@key=value@key=value…". Values
 /// are JSON scalars (numbers, true/false, null, "strings"; a value that is not valid JSON is taken as an unquoted
@@ -33,19 +33,19 @@ double relative_energy_error(double energy, double initial_energy, double min_en
 
 /// Every generated cloth mesh (rectangle or tube) of the scene with `vertices` as its target vertex count; a cloth
 /// read from a file is InputError (it cannot be resized).
-Scene with_vertex_count(Scene scene, Index vertices);
+sim::Scene with_vertex_count(sim::Scene scene, Index vertices);
 
-/// A simulator state: completed frames and steps, and every cloth's positions and velocities.
+/// A simulator state: completed frames and steps, and every body's positions and velocities (Simulator::bodies()).
 struct SimState {
   int frame = 0;
   long step = 0;
   std::vector<VecX> x, v;
 };
 /// The state after whole steps (frames derived from the step count: Simulator::step() does not count frames).
-SimState simulator_state(const Simulator& sim);
+SimState simulator_state(const sim::Simulator& sim);
 /// What a simulated state depends on, as a cache key: the scene without frames, threads and outputs (plus the size
 /// and modification time of mesh files). Add what else the state depends on (the step count, …).
-Json state_cache_key(const Scene& scene);
+Json state_cache_key(const sim::Scene& scene);
 /// The state cache of the benchmarks: a JSON key line (what the state depends on) followed by the binary vectors.
 /// load_state_cache returns nothing when the file is missing, unreadable, or holds a state for a different key;
 /// save_state_cache writes atomically.
@@ -136,7 +136,7 @@ std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, con
 /// is not charged to the step), then timed to opt.budget_seconds or opt.max_iters. E* per energy form comes from
 /// the reference solver of that form (newton-direct; pd-direct) run from x0 to opt.reference_rel_grad.
 /// Every spec is checked (check_solver_spec) before anything is simulated.
-ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& opt);
+ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt);
 
 /// convergence.csv: solver,iteration,wall_s,energy,grad_norm,rel_energy_error.
 std::string convergence_csv(const ConvergenceResult& result);
@@ -167,9 +167,9 @@ struct ScalabilityRow {
 
 /// For each vertex count: builds the scene with that count, simulates opt.warmup steps, then times opt.steps steps
 /// with the solver stopping at opt.rel_grad (and the scene's max_iters). The spec is checked first.
-std::vector<ScalabilityRow> run_scalability(const Scene& scene, const ScalabilityOptions& opt);
+std::vector<ScalabilityRow> run_scalability(const sim::Scene& scene, const ScalabilityOptions& opt);
 /// scalability.csv: vertices,solver,ms_per_step,iterations_per_step,solve_ms_per_step,unconverged_steps,
 /// target_vertices,steps,warmup,rel_grad,threads,setup_ms,ms_per_iteration,phases (phases: "name=ms;…" per step).
 std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const ScalabilityOptions& opt);
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

@@ -4,7 +4,7 @@
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
-#include <mgcloth/sim/shell_bench.hpp>
+#include <mgcloth/studies/shell_bench.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include <fmt/ranges.h>
@@ -15,7 +15,7 @@
 #include <optional>
 #include <random>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 namespace {
 double counter(const ShellBenchRow& r, const std::string& name) {
@@ -136,7 +136,7 @@ namespace {
 
 /// x and the coarse-level states of a solve at the body's finest level from a coarser solve's state: the solution
 /// prolongated level by level, and below it the state's own levels (Rmtr::resume_level_states order).
-void start_from_coarser(const ShellBody& body, const ShellBenchState& st, VecX& x, std::vector<VecX>& levels) {
+void start_from_coarser(const bodies::ShellBody& body, const ShellBenchState& st, VecX& x, std::vector<VecX>& levels) {
   const hierarchy::SubdivisionHierarchy& h = body.hierarchy();
   const int finest = body.num_levels() - 1, from = st.level - 1;  // hierarchy levels, 0 the coarsest
   if (from < 0 || from >= finest)
@@ -160,8 +160,8 @@ void start_from_coarser(const ShellBody& body, const ShellBenchState& st, VecX& 
 }
 }  // namespace
 
-Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt) {
-  Scene scene = base;
+sim::Scene shell_bench_scene(const sim::Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt) {
+  sim::Scene scene = base;
   scene.cloths.clear();
   if (level > 0)
     for (auto& sh : scene.shells) sh.level = level;
@@ -180,14 +180,14 @@ Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, co
   return scene;
 }
 
-std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& opt,
+std::vector<ShellBenchRow> run_shell_bench(const std::vector<sim::Scene>& scenes, const ShellBenchOptions& opt,
                                            const ShellBenchProgress& on_row) {
   if (opt.threads > 0) set_num_threads(opt.threads);
   std::vector<ShellBenchState> starts;
   for (const std::string& f : opt.start_from) {
     starts.push_back(read_shell_bench_state(f));
     bool known = false;
-    for (const Scene& sc : scenes)
+    for (const sim::Scene& sc : scenes)
       for (const auto& sh : sc.shells) known = known || sh.name == starts.back().shell;
     if (!known) throw_input_error("--start-from {}: no scene has a shell named \"{}\"", f, starts.back().shell);
     if (std::none_of(opt.levels.begin(), opt.levels.end(), [&](int l) { return l > starts.back().level; }))
@@ -203,11 +203,11 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
     return nullptr;
   };
   std::vector<ShellBenchRow> rows;
-  for (const Scene& base : scenes) {
+  for (const sim::Scene& base : scenes) {
     if (base.shells.empty()) throw_input_error("{}: the scene has no shells", base.file);
     for (int level : opt.levels)
       for (const SolverSpec& spec : opt.solvers) {
-        Scene scene = shell_bench_scene(base, level, spec, opt);
+        sim::Scene scene = shell_bench_scene(base, level, spec, opt);
         // A resumed solve goes on from its iterate: nested iteration would restart from the coarse problems.
         if (opt.resume && !opt.states_dir.empty()) {
           bool any = false;
@@ -229,7 +229,7 @@ std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, con
           scene.solver.params["initial"] = "fine";
         }
         scene.solve_jointly = false;  // each shell is a row of its own
-        Simulator sim(scene);
+        sim::Simulator sim(scene);
         for (size_t s = 0; s < sim.shells().size(); ++s) {
           const size_t group = sim.group_of(sim.scene().cloths.size() + s);
           ShellBenchRow row;
@@ -369,9 +369,9 @@ Json shell_bench_json(const std::vector<ShellBenchRow>& rows, const ShellBenchOp
   return j;
 }
 
-std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene) {
+std::vector<ProjectionBenchRow> run_projection_bench(const sim::Scene& scene) {
   if (scene.shells.empty()) throw_input_error("{}: the scene has no shells", scene.file);
-  const ShellBody body(scene.shells.front(), scene.gravity, scene.file);
+  const bodies::ShellBody body(scene.shells.front(), scene.gravity, scene.file);
   const hierarchy::SubdivisionHierarchy& h = body.hierarchy();
   std::vector<ProjectionBenchRow> rows;
   std::mt19937 rng(11);
@@ -435,4 +435,4 @@ std::string projection_bench_csv(const std::vector<ProjectionBenchRow>& rows) {
   return out;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

@@ -1,10 +1,10 @@
 #pragma once
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 #include <mgcloth/sim/scene.hpp>
 
 #include <functional>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 /// The time-step robustness study of Kopaničáková 2019 (§7.4.1, Fig. 10): the largest time step at which a solver
 /// converges at every step of a simulation. Each scene is simulated from rest over a fixed window of simulated time
@@ -80,7 +80,7 @@ std::vector<double> timestep_ladder(const TimestepBenchOptions& options);
 /// Every scene with every solver; a scene without shells, or bad options, is InputError before anything runs.
 /// A row of `previous` (an earlier, interrupted run with the same options) with the same scene, solver, level,
 /// window and time step is taken instead of running that try again, unless max_try_seconds would have cut it.
-std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<Scene>& scenes, const TimestepBenchOptions& options,
+std::vector<TimestepBenchRow> run_timestep_bench(const std::vector<sim::Scene>& scenes, const TimestepBenchOptions& options,
                                                  const TimestepBenchProgress& on_row = {},
                                                  const std::vector<TimestepBenchRow>& previous = {});
 /// In the order of first appearance of (scene, solver) in `rows`.
@@ -93,4 +93,4 @@ Json timestep_bench_json(const std::vector<TimestepBenchRow>& rows, const Timest
 /// The rows of timestep_bench_json's "results".
 std::vector<TimestepBenchRow> timestep_bench_rows(const Json& json);
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

@@ -1,10 +1,10 @@
 #pragma once
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 #include <mgcloth/sim/scene.hpp>
 
 #include <functional>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 /// The single-level solver study of Kopaničáková 2019 (Table 3, Fig. 10): each shell scene at each level, the
 /// scene's first time step solved by each solver from the same start, with the scene's stopping criterion.
@@ -61,7 +61,7 @@ ShellBenchState read_shell_bench_state(const std::string& file);
 /// The scene as the shell benchmarks run it: its shells only, each at `level` (0: the scene's), solved by `spec`
 /// with the scene's stopping criterion, and opt's time step (one step per frame), caps and threads where they are
 /// set; one frame.
-Scene shell_bench_scene(const Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt);
+sim::Scene shell_bench_scene(const sim::Scene& base, int level, const SolverSpec& spec, const ShellBenchOptions& opt);
 
 /// Called after every finished row with all rows so far, so that a long study can write its results as it goes.
 using ShellBenchProgress = std::function<void(const std::vector<ShellBenchRow>&)>;
@@ -69,7 +69,7 @@ using ShellBenchProgress = std::function<void(const std::vector<ShellBenchRow>&)
 /// Runs every (scene, level, solver); a solve that diverges (SolveError) is recorded with status "diverged".
 /// A state file that does not belong to its (scene, shell, level, solver, dofs) or is malformed is an InputError
 /// naming the file.
-std::vector<ShellBenchRow> run_shell_bench(const std::vector<Scene>& scenes, const ShellBenchOptions& options,
+std::vector<ShellBenchRow> run_shell_bench(const std::vector<sim::Scene>& scenes, const ShellBenchOptions& options,
                                            const ShellBenchProgress& on_row = {});
 /// scene,shell,level,dofs,time_step,solver,iterations,converged,status,energy,grad_norm,rel_grad,wall_s,
 /// accepted,rejected,hessian_assemblies,qp_calls,cg_iterations,work_assembly,work_qp (multilevel solvers: the per-level
@@ -90,8 +90,8 @@ struct ProjectionBenchRow {
   double exactness = 0.0;     ///< max over random coarse q of ‖P S q − q‖ / ‖q‖ (0 in exact arithmetic)
 };
 /// Every level pair of the scene's first shell at its level.
-std::vector<ProjectionBenchRow> run_projection_bench(const Scene& scene);
+std::vector<ProjectionBenchRow> run_projection_bench(const sim::Scene& scene);
 /// operator,fine_level,fine_dofs,coarse_dofs,build_ms,apply_ms,memory_bytes,entries,exactness
 std::string projection_bench_csv(const std::vector<ProjectionBenchRow>& rows);
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies

@@ -2,7 +2,7 @@
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
-#include <mgcloth/sim/convergence.hpp>
+#include <mgcloth/studies/convergence.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <limits>
 #include <sstream>
 
-namespace mgcloth::sim {
+namespace mgcloth::studies {
 
 namespace fs = std::filesystem;
 
@@ -58,7 +58,7 @@ SolverSpec elastic_reference() {
 
 /// The studied body's index among the scene's bodies (its cloths, then its shells), which is also its group: the
 /// study's simulators solve every body separately.
-size_t study_body(const Scene& scene, const std::string& name) {
+size_t study_body(const sim::Scene& scene, const std::string& name) {
   std::vector<std::string> names;
   for (const auto& c : scene.cloths) names.push_back(c.name);
   for (const auto& s : scene.shells) names.push_back(s.name);
@@ -73,7 +73,7 @@ std::string form_name(bool projective) { return projective ? "projective" : "ela
 
 /// The scene with `spec` as its solver (its stop criteria kept), in the energy form the solver was made for (the
 /// study compares each solver on its own form), and the options' thread count.
-Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
+sim::Scene with_solver(sim::Scene scene, const SolverSpec& spec, int threads) {
   scene.solve_jointly = false;  // the study freezes one body's own step objective
   scene.solver.name = spec.config.name;
   scene.solver.params = spec.config.params;
@@ -83,8 +83,8 @@ Scene with_solver(Scene scene, const SolverSpec& spec, int threads) {
 }
 
 /// A simulator of `scene` with `spec` as its solver, in `state`.
-std::unique_ptr<Simulator> simulator_at(const Scene& scene, const SolverSpec& spec, int threads, const SimState& state) {
-  auto sim = std::make_unique<Simulator>(with_solver(scene, spec, threads));
+std::unique_ptr<sim::Simulator> simulator_at(const sim::Scene& scene, const SolverSpec& spec, int threads, const SimState& state) {
+  auto sim = std::make_unique<sim::Simulator>(with_solver(scene, spec, threads));
   sim->set_state(state.frame, state.step, state.x, state.v);
   return sim;
 }
@@ -153,11 +153,11 @@ void save_reference(const std::string& state_cache, const Json& key, const Refer
   write_file_atomic(file, kept + Json{{"key", key}, {"reference", reference_to_json(ref)}}.dump() + "\n");
 }
 
-ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from);
 
 /// E* of one form: the reference solver from x0 to opt.reference_rel_grad.
-ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy reference_energy(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                  const ConvergenceOptions& opt, const SimState& state, const VecX& x0,
                                  const Json& state_key) {
   Json key = {{"state", state_key},         {"form", form_name(projective)},
@@ -177,7 +177,7 @@ ReferenceEnergy reference_energy(const Scene& scene, const SolverSpec& spec, boo
 
 /// The reference solver of one form from `from` (x0, or a solver's final iterate that went below E*) to
 /// opt.reference_rel_grad, the gradient norm relative to the one at x0 in both cases.
-ReferenceEnergy solve_reference(const Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
+ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec, bool projective, int max_iters,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
   VecX start;
@@ -265,11 +265,11 @@ double relative_energy_error(double energy, double initial_energy, double min_en
   return (energy - min_energy) / range;
 }
 
-Scene with_vertex_count(Scene scene, Index vertices) {
+sim::Scene with_vertex_count(sim::Scene scene, Index vertices) {
   if (vertices < 4 || vertices > 5'000'000)
     throw_input_error("vertex count must be within [4, 5000000] (got {})", vertices);
   for (size_t i = 0; i < scene.cloths.size(); ++i) {
-    MeshSource& m = scene.cloths[i].mesh;
+    bodies::MeshSource& m = scene.cloths[i].mesh;
     if (!m.file.empty())
       throw_input_error("{}: cloths[{}] (\"{}\"): the mesh is read from {}; only generated meshes can be given a vertex count",
                         scene.file, i, scene.cloths[i].name, m.file);
@@ -283,18 +283,18 @@ Scene with_vertex_count(Scene scene, Index vertices) {
   return scene;
 }
 
-SimState simulator_state(const Simulator& sim) {
+SimState simulator_state(const sim::Simulator& sim) {
   SimState st;
   st.step = sim.step_count();
   st.frame = static_cast<int>(st.step / sim.scene().substeps);
-  for (const auto& c : sim.cloths()) {
-    st.x.push_back(c->x());
-    st.v.push_back(c->v());
+  for (const auto& b : sim.bodies()) {  // every body, shells too: Simulator::set_state takes them all
+    st.x.push_back(b->x());
+    st.v.push_back(b->v());
   }
   return st;
 }
 
-Json state_cache_key(const Scene& scene) {
+Json state_cache_key(const sim::Scene& scene) {
   Json s = to_json(scene);
   for (const char* unrelated : {"frames", "threads", "output"}) s.erase(unrelated);
   for (auto& c : s["cloths"])
@@ -357,206 +357,268 @@ std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, con
   return std::nullopt;
 }
 
-ConvergenceResult run_convergence(const Scene& scene, const ConvergenceOptions& opt) {
+namespace {
+
+/// The non-convex step problems (buckling cloth) have several local minima; a solver may settle in a lower one
+/// than the reference did from x0. Its final iterate is kept, per form, to polish E* after all runs.
+struct Lowest {
+  double energy = kInf;
+  VecX x;
+  std::string solver;
+};
+
+/// What the parts of one convergence study share. Forms are indexed 0 (elastic) and 1 (projective).
+struct Study {
+  const sim::Scene& scene;
+  const ConvergenceOptions& opt;
+  size_t body = 0;                 ///< study_body(scene, opt.body)
+  std::vector<bool> projective;    ///< per opt.solvers: whether it minimizes the Projective Dynamics form
+  SolverSpec elastic;              ///< simulates steps 1 … K − 1 and gives the elastic form's E*
+  Json key{};                      ///< what the state at the start of step K depends on
+  SimState state{};                ///< the state at the start of step K
+  VecX x0{};                       ///< the frozen problem's start point, the same for every solver
+  std::array<int, 2> ref_index{-1, -1};  ///< per form: its E*'s place in result.references (-1: no solver of it)
+  std::array<Lowest, 2> lowest{};
+
+  bool any(bool pd) const { return std::find(projective.begin(), projective.end(), pd) != projective.end(); }
+  /// The reference solver of a form and its iteration cap.
+  SolverSpec reference_solver(bool pd) const { return pd ? parse_solver_spec("pd-direct") : elastic; }
+  int reference_max_iters(bool pd) const { return pd ? opt.pd_reference_max_iters : opt.reference_max_iters; }
+};
+
+/// Every check that needs no simulation: the options, the body, and every solver spec built once, so that a typo
+/// fails before anything is simulated. Returns per spec whether it is projective.
+std::vector<bool> check_study(const sim::Scene& scene, const ConvergenceOptions& opt) {
   check_options(opt);
-  const size_t body = study_body(scene, opt.body);
-  // Every spec is built once now, so that a typo fails before anything is simulated.
+  (void)study_body(scene, opt.body);
   std::vector<bool> projective;
   for (const auto& spec : opt.solvers) projective.push_back(check_solver_spec(spec));
-  const SolverSpec elastic = elastic_reference();
   const bool any_projective = std::find(projective.begin(), projective.end(), true) != projective.end();
   if (any_projective && !has_solver("pd-direct"))
     throw_input_error("the Projective Dynamics solvers need \"pd-direct\" for their E*, and this build has no such "
                       "solver (available: {})", fmt::join(solvers::solver_names(), ", "));
-  if (opt.threads > 0) set_num_threads(opt.threads);
+  return projective;
+}
 
-  ConvergenceResult result;
-  result.scene = scene.file;
-  result.cloth = body < scene.cloths.size() ? scene.cloths[body].name : scene.shells[body - scene.cloths.size()].name;
-  result.step = opt.step;
-  result.warmup_solver = elastic.label;
-  if (scene.cloths.size() + scene.shells.size() > 1)
-    logger().info("{}: {} bodies; the benchmark freezes the objective of \"{}\" (--body) only", scene.file,
-                  scene.cloths.size() + scene.shells.size(), result.cloth);
-
-  // The state at the start of step K: simulated with the reference solver and the scene's stop criteria, or cached.
-  const long steps_before = opt.step - 1;
-  const Json key = {{"purpose", "start of a benchmarked step"},
-                    {"scene", state_cache_key(with_solver(scene, elastic, 0))},
-                    {"steps", steps_before}};
+/// The state at the start of step K: simulated with the reference solver and the scene's stop criteria, or cached.
+SimState start_of_step(const Study& st, ConvergenceResult& result) {
+  const long steps_before = st.opt.step - 1;
   std::optional<SimState> state;
-  if (!opt.state_cache.empty()) state = load_state_cache(opt.state_cache, key);
+  if (!st.opt.state_cache.empty()) state = load_state_cache(st.opt.state_cache, st.key);
   if (state) {
     result.start_state = "cache";
-    logger().info("state at the start of step {} read from {}", opt.step, opt.state_cache);
-  } else {
-    result.start_state = "simulated";
-    Simulator sim(with_solver(scene, elastic, opt.threads));
-    Timer timer;
-    while (sim.step_count() < steps_before) {
-      sim.step();
-      logger().info("step {}/{} simulated with {} ({:.1f} s)", sim.step_count(), steps_before, elastic.label, timer.seconds());
-    }
-    state = simulator_state(sim);
-    if (!opt.state_cache.empty()) {
-      save_state_cache(opt.state_cache, key, *state);
-      logger().info("state at the start of step {} cached in {}", opt.step, opt.state_cache);
-    }
+    logger().info("state at the start of step {} read from {}", st.opt.step, st.opt.state_cache);
+    return *state;
   }
+  result.start_state = "simulated";
+  sim::Simulator sim(with_solver(st.scene, st.elastic, st.opt.threads));
+  Timer timer;
+  while (sim.step_count() < steps_before) {
+    sim.step();
+    logger().info("step {}/{} simulated with {} ({:.1f} s)", sim.step_count(), steps_before, st.elastic.label,
+                  timer.seconds());
+  }
+  state = simulator_state(sim);
+  if (!st.opt.state_cache.empty()) {
+    save_state_cache(st.opt.state_cache, st.key, *state);
+    logger().info("state at the start of step {} cached in {}", st.opt.step, st.opt.state_cache);
+  }
+  return *state;
+}
 
-  // The frozen problem's start point, from a simulator of the elastic form.
+/// The frozen problem's start point, from a simulator of the elastic form.
+VecX frozen_start(const Study& st) {
   VecX x0;
-  {
-    auto sim = simulator_at(scene, elastic, opt.threads, *state);
-    (void)sim->prepare_problem(study_body(scene, opt.body), x0);
-    result.vertices = static_cast<Index>(x0.size() / 3);
+  auto sim = simulator_at(st.scene, st.elastic, st.opt.threads, st.state);
+  (void)sim->prepare_problem(st.body, x0);
+  return x0;
+}
+
+/// E* per energy form that some solver minimizes, in result.references (st.ref_index says where).
+void find_references(Study& st, ConvergenceResult& result) {
+  for (const bool pd : {false, true}) {
+    if (!st.any(pd)) continue;
+    st.ref_index[pd ? 1 : 0] = static_cast<int>(result.references.size());
+    result.references.push_back(reference_energy(st.scene, st.reference_solver(pd), pd, st.reference_max_iters(pd),
+                                                 st.opt, st.state, st.x0, st.key));
   }
-  logger().info("{}: step {} of \"{}\" ({} points)", scene.file, opt.step, result.cloth, result.vertices);
+}
 
-  // E* per energy form that some solver minimizes: ref_index[form] is its place in result.references.
-  const bool any_elastic = std::find(projective.begin(), projective.end(), false) != projective.end();
-  std::array<int, 2> ref_index{-1, -1};
-  if (any_elastic) {
-    ref_index[0] = static_cast<int>(result.references.size());
-    result.references.push_back(reference_energy(scene, elastic, false, opt.reference_max_iters, opt, *state, x0, key));
-  }
-  if (any_projective) ref_index[1] = static_cast<int>(result.references.size());
-  if (any_projective)
-    result.references.push_back(reference_energy(scene, parse_solver_spec("pd-direct"), true, opt.pd_reference_max_iters,
-                                                 opt, *state, x0, key));
-  const auto reference_of = [&](bool pd) -> const ReferenceEnergy& {
-    return result.references[static_cast<size_t>(ref_index[pd ? 1 : 0])];
-  };
-  // The non-convex step problems (buckling cloth) have several local minima; a solver may settle in a lower one
-  // than the reference did from x0. Its final iterate is kept, per form, to polish E* after all runs.
-  struct Lowest {
-    double energy = kInf;
-    VecX x;
-    std::string solver;
-  };
-  std::array<Lowest, 2> lowest;
+/// A solver that diverges is a result, not the end of the benchmark: its trace up to the failure is kept and its
+/// status says why it stopped.
+void record_divergence(const SolveError& err, const solvers::Trace& so_far, const SolverSpec& spec,
+                       SolverSummary& summary) {
+  logger().warn("{}: {}", spec.label, err.what());
+  summary.status = fmt::format("diverged: {}", err.what());
+  summary.iterations = so_far.empty() ? 0 : so_far.back().iteration;
+  summary.final_error = kNaN;
+}
 
-  for (size_t i = 0; i < opt.solvers.size(); ++i) {
-    const SolverSpec& spec = opt.solvers[i];
-    const ReferenceEnergy& ref = reference_of(projective[i]);
-    auto sim = simulator_at(scene, spec, opt.threads, *state);
-    VecX own_start;
-    solvers::Problem problem = sim->prepare_problem(study_body(scene, opt.body), own_start);
-    if (own_start.size() != x0.size())
-      throw_error("{}: its simulator has {} dofs, the reference's {}", spec.label, own_start.size(), x0.size());
-    if ((own_start - x0).cwiseAbs().maxCoeff() > 1e-12)
-      logger().warn("{}: its simulator predicts a different start point; every solver starts from the same x0", spec.label);
-    solvers::NonlinearSolver& solver = sim->solver(0);
-
-    // A solver that diverges is a result, not the end of the benchmark: its trace up to the failure is kept and
-    // its status says why it stopped.
-    SolverSummary summary;
-    summary.solver = spec.label;
-    summary.form = ref.form;
-    const auto diverged = [&](const SolveError& err, const solvers::Trace& so_far) {
-      logger().warn("{}: {}", spec.label, err.what());
-      summary.status = fmt::format("diverged: {}", err.what());
-      summary.iterations = so_far.empty() ? 0 : so_far.back().iteration;
-      summary.final_error = kNaN;
-    };
-    // Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
-    // hierarchies), so the timed run measures what every step costs.
-    Timer timer;
-    try {
-      VecX x = x0;
-      solvers::Stop stop;
-      stop.rel_grad = kTimedRelGrad;
-      stop.max_iters = 1;
-      solver.minimize(problem, x, stop, nullptr);
-    } catch (const SolveError& err) {
-      diverged(err, {});
-      result.summaries.push_back(summary);
-      continue;
-    } catch (const InputError&) {
-      throw;
-    } catch (const Error& err) {
-      // A solver that cannot run on this problem (e.g. a smoother that needs what the hierarchy does not provide)
-      // is recorded as such; the other solvers' results are still measured and written.
-      logger().warn("{}: {}", spec.label, err.what());
-      summary.status = fmt::format("error: {}", err.what());
-      summary.final_error = kNaN;
-      result.summaries.push_back(summary);
-      continue;
-    }
-    summary.warmup_seconds = timer.seconds();
-
+/// Warm-up: one iteration on a copy of x0 does the set-up a simulation does once (analyses, colorings,
+/// hierarchies), so the timed run measures what every step costs. False (with the summary saying why) when the
+/// solver diverged or cannot run on this problem.
+bool warm_up(solvers::NonlinearSolver& solver, solvers::Problem& problem, const VecX& x0, const SolverSpec& spec,
+             SolverSummary& summary) {
+  try {
     VecX x = x0;
     solvers::Stop stop;
     stop.rel_grad = kTimedRelGrad;
-    stop.max_iters = opt.max_iters;
-    stop.max_seconds = opt.budget_seconds;
-    solvers::Trace trace;
-    solvers::SolveReport report;
-    timer.reset();
-    bool failed = false;
-    try {
-      report = solver.minimize(problem, x, stop, &trace);
-    } catch (const SolveError& err) {
-      diverged(err, trace);
-      summary.seconds = timer.seconds();
-      failed = true;
-    }
-    if (trace.empty()) {
-      if (!failed) throw_error("{}: the solver recorded no trace", spec.label);
-      result.summaries.push_back(summary);
-      continue;
-    }
-    const double e0 = trace.front().energy;
-    for (const auto& t : trace)
-      result.rows.push_back({spec.label, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
-                             relative_energy_error(t.energy, e0, ref.energy)});
-    summary.final_error = result.rows.back().rel_energy_error;
-    for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, spec.label, kErrorLevels[l]);
-    if (failed) {
-      result.summaries.push_back(summary);
-      continue;
-    }
-    Lowest& low = lowest[projective[i] ? 1 : 0];
-    if (trace.back().energy < low.energy) low = {trace.back().energy, x, spec.label};
-    summary.iterations = report.iterations;
-    summary.final_rel_grad = rel_grad_of(report);
-    summary.seconds = report.wall_ms / 1e3;
-    summary.status = report.status;
-    summary.counters = report.counters;
-    logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
-                  summary.seconds, summary.status, summary.final_error);
-    result.summaries.push_back(summary);
+    stop.max_iters = 1;
+    solver.minimize(problem, x, stop, nullptr);
+  } catch (const SolveError& err) {
+    record_divergence(err, {}, spec, summary);
+    return false;
+  } catch (const InputError&) {
+    throw;
+  } catch (const Error& err) {
+    // A solver that cannot run on this problem (e.g. a smoother that needs what the hierarchy does not provide)
+    // is recorded as such; the other solvers' results are still measured and written.
+    logger().warn("{}: {}", spec.label, err.what());
+    summary.status = fmt::format("error: {}", err.what());
+    summary.final_error = kNaN;
+    return false;
   }
+  return true;
+}
 
-  // E* polished: where a solver ended below the reference's minimum, the reference solver continues from that
-  // iterate to the same tolerance, and the lower of the two minima is E* for every solver of that form.
-  for (int f = 0; f < 2; ++f) {
-    if (ref_index[static_cast<size_t>(f)] < 0) continue;
-    ReferenceEnergy& ref = result.references[static_cast<size_t>(ref_index[static_cast<size_t>(f)])];
-    const Lowest& low = lowest[static_cast<size_t>(f)];
+/// The rows of one solver's trace, measured against E* = `min_energy`, and its summary's errors.
+void add_rows(const solvers::Trace& trace, const std::string& solver, double min_energy, SolverSummary& summary,
+              ConvergenceResult& result) {
+  const double e0 = trace.front().energy;
+  for (const auto& t : trace)
+    result.rows.push_back({solver, t.iteration, t.wall_ms / 1e3, t.energy, t.grad_norm,
+                           relative_energy_error(t.energy, e0, min_energy)});
+  summary.final_error = result.rows.back().rel_energy_error;
+  for (size_t l = 0; l < kErrorLevels.size(); ++l) summary.time_to[l] = time_to_error(result.rows, solver, kErrorLevels[l]);
+}
+
+/// The timed run of solver i from x0 to the budget or the iteration cap: its rows, its summary, and its final
+/// iterate where it is the lowest of its form so far.
+void timed_run(Study& st, size_t i, solvers::NonlinearSolver& solver, solvers::Problem& problem,
+               const ReferenceEnergy& ref, SolverSummary& summary, ConvergenceResult& result) {
+  const SolverSpec& spec = st.opt.solvers[i];
+  VecX x = st.x0;
+  solvers::Stop stop;
+  stop.rel_grad = kTimedRelGrad;
+  stop.max_iters = st.opt.max_iters;
+  stop.max_seconds = st.opt.budget_seconds;
+  solvers::Trace trace;
+  solvers::SolveReport report;
+  Timer timer;
+  bool failed = false;
+  try {
+    report = solver.minimize(problem, x, stop, &trace);
+  } catch (const SolveError& err) {
+    record_divergence(err, trace, spec, summary);
+    summary.seconds = timer.seconds();
+    failed = true;
+  }
+  if (trace.empty()) {
+    if (!failed) throw_error("{}: the solver recorded no trace", spec.label);
+    return;
+  }
+  add_rows(trace, spec.label, ref.energy, summary, result);
+  if (failed) return;
+  Lowest& low = st.lowest[st.projective[i] ? 1 : 0];
+  if (trace.back().energy < low.energy) low = {trace.back().energy, x, spec.label};
+  summary.iterations = report.iterations;
+  summary.final_rel_grad = rel_grad_of(report);
+  summary.seconds = report.wall_ms / 1e3;
+  summary.status = report.status;
+  summary.counters = report.counters;
+  logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
+                summary.seconds, summary.status, summary.final_error);
+}
+
+/// Solver i on its own simulator, so that it gets the problem it gets in a simulation (hierarchy, coarse
+/// objectives, energy form), from the same x0 as every other: warmed up, then timed.
+void run_solver(Study& st, size_t i, ConvergenceResult& result) {
+  const SolverSpec& spec = st.opt.solvers[i];
+  const ReferenceEnergy& ref = result.references[static_cast<size_t>(st.ref_index[st.projective[i] ? 1 : 0])];
+  auto sim = simulator_at(st.scene, spec, st.opt.threads, st.state);
+  VecX own_start;
+  solvers::Problem problem = sim->prepare_problem(st.body, own_start);
+  if (own_start.size() != st.x0.size())
+    throw_error("{}: its simulator has {} dofs, the reference's {}", spec.label, own_start.size(), st.x0.size());
+  if ((own_start - st.x0).cwiseAbs().maxCoeff() > 1e-12)
+    logger().warn("{}: its simulator predicts a different start point; every solver starts from the same x0", spec.label);
+  solvers::NonlinearSolver& solver = sim->solver(0);
+  SolverSummary summary;
+  summary.solver = spec.label;
+  summary.form = ref.form;
+  Timer timer;
+  if (warm_up(solver, problem, st.x0, spec, summary)) {
+    summary.warmup_seconds = timer.seconds();
+    timed_run(st, i, solver, problem, ref, summary, result);
+  }
+  result.summaries.push_back(summary);
+}
+
+/// The rows and summaries of every solver of form `pd` measured again against `ref`.
+void rescore(const Study& st, bool pd, const ReferenceEnergy& ref, ConvergenceResult& result) {
+  for (size_t i = 0; i < st.opt.solvers.size(); ++i) {
+    if (st.projective[i] != pd) continue;
+    SolverSummary& s = result.summaries[i];
+    double e0 = kNaN;
+    for (auto& row : result.rows)
+      if (row.solver == s.solver) {
+        if (row.iteration == 0) e0 = row.energy;
+        row.rel_energy_error = relative_energy_error(row.energy, e0, ref.energy);
+        s.final_error = row.rel_energy_error;
+      }
+    for (size_t l = 0; l < kErrorLevels.size(); ++l) s.time_to[l] = time_to_error(result.rows, s.solver, kErrorLevels[l]);
+  }
+}
+
+/// E* polished: where a solver ended below the reference's minimum, the reference solver continues from that
+/// iterate to the same tolerance, and the lower of the two minima is E* for every solver of that form.
+void polish_references(const Study& st, ConvergenceResult& result) {
+  for (const bool pd : {false, true}) {
+    const int index = st.ref_index[pd ? 1 : 0];
+    if (index < 0) continue;
+    ReferenceEnergy& ref = result.references[static_cast<size_t>(index)];
+    const Lowest& low = st.lowest[pd ? 1 : 0];
     if (!(low.energy < ref.energy - 1e-9 * std::abs(ref.initial_energy - ref.energy))) continue;
     logger().info("{} ended at {:.15e}, below E* of the {} form: polishing E* from its final iterate", low.solver,
                   low.energy, ref.form);
-    ReferenceEnergy polished = solve_reference(scene, f == 1 ? parse_solver_spec("pd-direct") : elastic, f == 1,
-                                               f == 1 ? opt.pd_reference_max_iters : opt.reference_max_iters, opt,
-                                               *state, x0, low.x);
+    ReferenceEnergy polished = solve_reference(st.scene, st.reference_solver(pd), pd, st.reference_max_iters(pd),
+                                               st.opt, st.state, st.x0, low.x);
     if (!(polished.energy < ref.energy)) continue;
     polished.polished_from = low.solver;
     polished.unpolished_energy = ref.energy;
     ref = polished;
-    for (size_t i = 0; i < opt.solvers.size(); ++i) {
-      if (static_cast<int>(projective[i]) != f) continue;
-      SolverSummary& s = result.summaries[i];
-      double e0 = kNaN;
-      for (auto& row : result.rows)
-        if (row.solver == s.solver) {
-          if (row.iteration == 0) e0 = row.energy;
-          row.rel_energy_error = relative_energy_error(row.energy, e0, ref.energy);
-          s.final_error = row.rel_energy_error;
-        }
-      for (size_t l = 0; l < kErrorLevels.size(); ++l) s.time_to[l] = time_to_error(result.rows, s.solver, kErrorLevels[l]);
-    }
+    rescore(st, pd, ref, result);
   }
+}
+
+}  // namespace
+
+ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt) {
+  Study st{.scene = scene, .opt = opt, .projective = check_study(scene, opt), .elastic = elastic_reference()};
+  st.body = study_body(scene, opt.body);
+  if (opt.threads > 0) set_num_threads(opt.threads);
+
+  ConvergenceResult result;
+  result.scene = scene.file;
+  result.cloth = st.body < scene.cloths.size() ? scene.cloths[st.body].name
+                                               : scene.shells[st.body - scene.cloths.size()].name;
+  result.step = opt.step;
+  result.warmup_solver = st.elastic.label;
+  if (scene.cloths.size() + scene.shells.size() > 1)
+    logger().info("{}: {} bodies; the benchmark freezes the objective of \"{}\" (--body) only", scene.file,
+                  scene.cloths.size() + scene.shells.size(), result.cloth);
+
+  st.key = {{"purpose", "start of a benchmarked step"},
+            {"scene", state_cache_key(with_solver(scene, st.elastic, 0))},
+            {"steps", static_cast<long>(opt.step - 1)}};
+  st.state = start_of_step(st, result);
+  st.x0 = frozen_start(st);
+  result.vertices = static_cast<Index>(st.x0.size() / 3);
+  logger().info("{}: step {} of \"{}\" ({} points)", scene.file, opt.step, result.cloth, result.vertices);
+
+  find_references(st, result);
+  for (size_t i = 0; i < opt.solvers.size(); ++i) run_solver(st, i, result);
+  polish_references(st, result);
   return result;
 }
 
@@ -626,7 +688,7 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
           {"solvers", solvers}};
 }
 
-std::vector<ScalabilityRow> run_scalability(const Scene& scene, const ScalabilityOptions& opt) {
+std::vector<ScalabilityRow> run_scalability(const sim::Scene& scene, const ScalabilityOptions& opt) {
   if (opt.vertices.empty()) throw_input_error("vertices: the list is empty");
   if (opt.steps < 1) throw_input_error("steps: must be at least 1 (got {})", opt.steps);
   if (opt.warmup < 0) throw_input_error("warm-up steps: must be non-negative (got {})", opt.warmup);
@@ -638,14 +700,14 @@ std::vector<ScalabilityRow> run_scalability(const Scene& scene, const Scalabilit
 
   std::vector<ScalabilityRow> rows;
   for (Index n : opt.vertices) {
-    Scene s = with_solver(with_vertex_count(scene, n), opt.solver, opt.threads);
+    sim::Scene s = with_solver(with_vertex_count(scene, n), opt.solver, opt.threads);
     s.solver.stop.rel_grad = opt.rel_grad;
     s.solver.stop.abs_grad = 0.0;
     ScalabilityRow row;
     row.target_vertices = n;
     row.solver = opt.solver.label;
     Timer timer;
-    Simulator sim(std::move(s));
+    sim::Simulator sim(std::move(s));
     row.setup_ms = timer.ms();
     for (const auto& c : sim.cloths()) row.vertices += c->mesh().num_vertices();
     for (int k = 0; k < opt.warmup; ++k) sim.step();
@@ -695,4 +757,4 @@ std::string scalability_csv(const std::vector<ScalabilityRow>& rows, const Scala
   return out;
 }
 
-}  // namespace mgcloth::sim
+}  // namespace mgcloth::studies
