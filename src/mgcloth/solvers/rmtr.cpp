@@ -2,6 +2,7 @@
 #include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
+#include <mgcloth/solvers/line_search.hpp>
 #include <mgcloth/solvers/rmtr.hpp>
 
 #include <Eigen/Eigenvalues>
@@ -375,21 +376,23 @@ bool Rmtr::test_correction(Visit& v, VecX& x, const VecX& xc0, const VecX& xc, c
 
 void Rmtr::backtrack_correction(Visit& v, const VecX& x, const VecX& s, RmtrCorrection& corr, VecX& trial,
                                 double& ft) {
-  const TrustRegionParams& p = m_params.tr;
   const double slope = v.L.tr->gradient().dot(s);  // ∇hᵀs at x, where pre-smoothing left the gradient
-  for (int k = 0; k < m_params.correction_backtracking && slope < 0.0; ++k) {
-    const double alpha = std::ldexp(1.0, -(k + 1));
-    trial = x + alpha * s;
-    const double fa = v.h->value(trial);
-    ++v.C.energy_evaluations;
-    if (std::isfinite(fa) && v.fx - fa >= -p.eta1 * alpha * slope) {
-      corr.accepted = true;
-      corr.fraction = alpha;
-      ft = fa;
-      ++v.C.corrections_backtracked;
-      break;
-    }
-  }
+  if (!(slope < 0.0)) return;
+  LineSearchParams ls;  // α = ½, ¼, … with the trust region's own acceptance constant
+  ls.armijo = m_params.tr.eta1;
+  ls.max_steps = m_params.correction_backtracking;
+  const LineSearchResult r = backtrack(
+      [&](double alpha) {
+        trial = x + alpha * s;
+        ++v.C.energy_evaluations;
+        return v.h->value(trial);
+      },
+      v.fx, slope, 0.5, ls);
+  if (!r.success) return;
+  corr.accepted = true;
+  corr.fraction = r.alpha;
+  ft = r.energy;
+  ++v.C.corrections_backtracked;
 }
 
 Rmtr::CycleResult Rmtr::post_smooth(Visit& v, VecX& x, bool moved) {
