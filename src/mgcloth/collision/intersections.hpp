@@ -1,0 +1,23 @@
+#pragma once
+#include <mgcloth/core/types.hpp>
+
+#include <array>
+#include <vector>
+
+namespace mgcloth::collision {
+
+/// Two triangles of a surface that intersect.
+struct TrianglePair {
+  Index a = 0, b = 0;  ///< triangle indices, a < b
+};
+
+/// The independent checker of the contact guarantee: every pair of triangles (from `triangles`, points in x) that
+/// intersect, decided by exact predicates (CGAL's Exact_predicates_inexact_constructions_kernel) after CGAL's own
+/// box intersection as the broad phase, so that it shares nothing with the contact code. Triangles that share a
+/// vertex or an edge touch there by construction; they count as intersecting only where they also cross elsewhere
+/// (an edge of one passing through the other away from the shared part). Degenerate (zero-area) triangles are
+/// skipped. At most `max_pairs` pairs are returned (the count of all is `count`, if non-null).
+std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tri>& triangles, size_t max_pairs = 100,
+                                             size_t* count = nullptr);
+
+}  // namespace mgcloth::collision
