@@ -34,12 +34,22 @@ struct Aabb {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
+  void expand(const Aabb& b) {
+    lo = lo.cwiseMin(b.lo);
+    hi = hi.cwiseMax(b.hi);
+  }
+  /// Grows the box by r on every side.
+  void inflate(double r) {
+    lo.array() -= r;
+    hi.array() += r;
+  }
   bool overlaps(const Aabb& o) const { return (lo.array() <= o.hi.array()).all() && (o.lo.array() <= hi.array()).all(); }
 };
 
 /// A bounding-volume hierarchy over boxes: built top-down, refit bottom-up when the boxes move.
 class Bvh {
  public:
+  /// Median split on the longest axis of the boxes' centroids, leaves of at most kLeafSize boxes.
   void build(const std::vector<Aabb>& boxes);
   /// Same boxes (count and order) at new places; the tree's shape is kept.
   void refit(const std::vector<Aabb>& boxes);
@@ -47,6 +57,11 @@ class Bvh {
   template <class F>
   void query(const Aabb& box, F&& f) const;
   size_t size() const { return m_leaf_box.size(); }
+  /// Σ over the nodes of their surface areas / the root's: by the surface-area heuristic (MacDonald & Booth 1990),
+  /// the expected number of nodes a small query box visits, up to a constant. 1 for an empty tree or a flat root.
+  double surface_area_ratio() const;
+
+  static constexpr Index kLeafSize = 4;
 
  private:
   struct Node {
@@ -54,15 +69,37 @@ class Bvh {
     Index left = -1, right = -1;  ///< children, or -1 for a leaf
     Index first = 0, count = 0;   ///< a leaf's range in m_order
   };
-  std::vector<Node> m_nodes;
+  void update_nodes();
+  std::vector<Node> m_nodes;  ///< children after their parent, so a backward sweep refits
   std::vector<Index> m_order;
-  std::vector<Aabb> m_leaf_box;
+  std::vector<Aabb> m_leaf_box;  ///< the boxes in m_order's order, so a leaf's boxes are contiguous
   friend class BroadPhase;
 };
 
+template <class F>
+void Bvh::query(const Aabb& box, F&& f) const {
+  if (m_nodes.empty()) return;
+  // Median splits keep the depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
+  Index stack[64];
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Node& node = m_nodes[stack[--top]];
+    if (!node.box.overlaps(box)) continue;
+    if (node.left < 0) {
+      for (Index k = node.first; k < node.first + node.count; ++k)
+        if (m_leaf_box[k].overlaps(box)) f(m_order[k]);
+    } else {
+      stack[top++] = node.right;
+      stack[top++] = node.left;
+    }
+  }
+}
+
 /// Broad phase over a surface: boxes of triangles, edges and vertices, their BVHs refit every call and rebuilt when
 /// refitting has let them grow, queries in parallel. Deterministic: the candidates come out in the same order
-/// whatever the thread count.
+/// whatever the thread count, and that order is ascending (lexicographic), so it does not depend on the trees'
+/// history either (a fresh BroadPhase, as after a resume, gives the same list).
 class BroadPhase {
  public:
   explicit BroadPhase(const SurfaceTopology* surface);
@@ -71,11 +108,23 @@ class BroadPhase {
   /// Pairs whose boxes swept from x to x + d (each grown by `inflate`) overlap: every pair that can come within
   /// 2·inflate of each other while the points move linearly.
   void find_swept(const VecX& x, const VecX& d, double inflate, Candidates& out);
+  /// How many times a tree was built (the first call builds both): for tests and statistics.
+  Index builds() const { return m_builds; }
+
+  /// A tree is rebuilt when its surface-area ratio has grown this much since its build (see broad_phase.cpp).
+  static constexpr double kRebuildGrowth = 2.0;
 
  private:
+  template <class PointBox>
+  void find_with(const PointBox& point_box, double inflate, Candidates& out);
+  void update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& ratio_at_build, bool fresh);
+
   const SurfaceTopology* m_surface;
   Bvh m_triangles, m_edges;
-  // (implementation state: boxes, rebuild heuristics)
+  std::vector<Aabb> m_triangle_boxes, m_edge_boxes, m_vertex_boxes;
+  double m_triangle_ratio_at_build = 1.0, m_edge_ratio_at_build = 1.0;
+  std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results, kept for their capacity
+  Index m_builds = 0;
 };
 
 /// O(n²) reference of BroadPhase::find, for tests.
