@@ -88,6 +88,11 @@ TEST(Intersections, FoldOverAcrossASharedEdge) {
   EXPECT_EQ(count(points({u, w, a, {0.5, 1, 1e-300}}), t), 0u);
 }
 
+TEST(Intersections, TheSameTriangleTwiceOverlapsItself) {
+  const VecX x = points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  EXPECT_EQ(count(x, {{0, 1, 2}, {2, 1, 0}}), 1u);
+}
+
 TEST(Intersections, DegenerateTrianglesAreSkipped) {
   // Triangle 1 is a segment through triangle 0's face; triangle 2 has two coincident corners.
   const VecX x = points({{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 0}, {0.5, 0.5, 1}, {0.4, 0.4, 1}});
