@@ -199,6 +199,30 @@ TEST(AdditiveCCD, NoTunnelling) {
   check_contract(edges, 0.1, 1.0, te, "edges");
 }
 
+// Oblique passes through a large triangle and between crossing edges, the relative motion's normal part a fraction r
+// of l_p, for small and large separations: a step longer than d/l_p would cross and come out on the far side at
+// more than s·d0 (for s = 0.01, r = 0.9 a step of 1.5·d/l_p does), so only the step bound keeps these from tunnelling.
+TEST(AdditiveCCD, NoTunnellingObliquePasses) {
+  const Vec3 zero = Vec3::Zero();
+  for (const double r : {1.0, 0.95, 0.9, 0.7, 0.5})
+    for (const double s : {0.01, 0.1, 0.5}) {
+      const double w = 2 * std::sqrt(1 / (r * r) - 1);  // tangential speed for a normal speed of 2
+      const Motion point{Kind::PointTriangle,
+                         {Vec3(0, 0, 1), Vec3(-10, -10, 0), Vec3(10, -10, 0), Vec3(0, 10, 0)},
+                         {Vec3(w, 0, -2), zero, zero, zero}};
+      const double t = ccd(point, s, 1.0);
+      EXPECT_LT(t, 0.5) << "r " << r << " s " << s;
+      check_contract(point, s, 1.0, t, "point r " + std::to_string(r) + " s " + std::to_string(s));
+      const Vec3 half(0.5 * w, 0, -1);  // a moves by +half, b by −half
+      const Motion edges{Kind::EdgeEdge,
+                         {Vec3(-10, 0, 0.5), Vec3(10, 0, 0.5), Vec3(0, -10, -0.5), Vec3(0, 10, -0.5)},
+                         {half, half, -half, -half}};
+      const double te = ccd(edges, s, 1.0);
+      EXPECT_LT(te, 0.5) << "r " << r << " s " << s;
+      check_contract(edges, s, 1.0, te, "edges r " + std::to_string(r) + " s " + std::to_string(s));
+    }
+}
+
 TEST(AdditiveCCD, FarOrStillPairsReturnTmax) {
   std::mt19937_64 rng(15);
   for (int trial = 0; trial < 100; ++trial) {
