@@ -11,12 +11,13 @@ namespace {
 
 // One relative threshold for every degenerate case, on a squared sine: a triangle whose angle at t0 has
 // sin² ≤ kDegenerateSin2 (|n|² ≤ kDegenerateSin2·|t1−t0|²·|t2−t0|²) is treated as its three edges; two segments
-// with |a×b|² ≤ kDegenerateSin2·|a|²·|b|² as parallel; a segment with |b−a|² ≤ kDegenerateSin2·|p−a|² as a
-// point. Below it the plane and line–line formulas lose accuracy like ε/sin (ε = 2.2e-16) and their Hessians grow
-// like 1/sin²; falling back to the edges / endpoints costs at most kDegenerateSin2·ℓ² in squared distance (ℓ the
-// shorter segment or edge: along the minimiser's valley the squared distance grows by at most ℓ²sin² before it
-// reaches the boundary), i.e. a relative error of 1e-6 of the edge length in distance when the exact distance is 0,
-// and no more than 2e-10 of it from the formulas' rounding above the threshold.
+// with |a×b|² ≤ kDegenerateSin2·|a|²·|b|² as parallel; a segment with |b−a|² ≤ kDegenerateSin2·|p−a|² as a point.
+// Near those limits the plane and line–line formulas lose accuracy like ε/sin (ε = 2.2e-16) and their Hessians grow
+// like 1/sin². Falling back to the edges / endpoints costs at most kDegenerateSin2·ℓ² in squared distance (ℓ the
+// shorter segment or edge: along the minimiser's valley the squared distance grows by at most ℓ²·sin² before it
+// reaches the boundary of the parameter domain), so at most 1e-6·ℓ in distance, and only when the pair nearly
+// touches; just above the threshold the formulas' rounding costs about 2e-10·ℓ. Additive CCD stays safe as long as
+// 1e-6·ℓ is well below a tenth of its target distance (always, for cloth edges and contact thicknesses).
 constexpr double kDegenerateSin2 = 1e-12;
 
 // The smooth pieces take difference vectors y_k = x[plus_k] − x[minus_k] of the 4 stacked points; their gradient and
