@@ -11,12 +11,13 @@ namespace {
 
 // One relative threshold for every degenerate case, on a squared sine: a triangle whose angle at t0 has
 // sin² ≤ kDegenerateSin2 (|n|² ≤ kDegenerateSin2·|t1−t0|²·|t2−t0|²) is treated as its three edges; two segments
-// with |a×b|² ≤ kDegenerateSin2·|a|²·|b|² as parallel; a segment with |b−a|² ≤ kDegenerateSin2·|p−a|² as a
-// point. Below it the plane and line–line formulas lose accuracy like ε/sin (ε = 2.2e-16) and their Hessians grow
-// like 1/sin²; falling back to the edges / endpoints costs at most kDegenerateSin2·ℓ² in squared distance (ℓ the
-// shorter segment or edge: along the minimiser's valley the squared distance grows by at most ℓ²sin² before it
-// reaches the boundary), i.e. a relative error of 1e-6 of the edge length in distance when the exact distance is 0,
-// and no more than 2e-10 of it from the formulas' rounding above the threshold.
+// with |a×b|² ≤ kDegenerateSin2·|a|²·|b|² as parallel; a segment with |b−a|² ≤ kDegenerateSin2·|p−a|² as a point.
+// Near those limits the plane and line–line formulas lose accuracy like ε/sin (ε = 2.2e-16) and their Hessians grow
+// like 1/sin². Falling back to the edges / endpoints costs at most kDegenerateSin2·ℓ² in squared distance (ℓ the
+// shorter segment or edge: along the minimiser's valley the squared distance grows by at most ℓ²·sin² before it
+// reaches the boundary of the parameter domain), so at most 1e-6·ℓ in distance, and only when the pair nearly
+// touches; just above the threshold the formulas' rounding costs about 2e-10·ℓ. Additive CCD stays safe as long as
+// 1e-6·ℓ is well below a tenth of its target distance (always, for cloth edges and contact thicknesses).
 constexpr double kDegenerateSin2 = 1e-12;
 
 // The smooth pieces take difference vectors y_k = x[plus_k] − x[minus_k] of the 4 stacked points; their gradient and
@@ -172,48 +173,43 @@ struct PointTriangleResult {
   PointTriangleType type;
   double d2;
 };
-PointTriangleResult classify_point_triangle(const Vec3& p, const Vec3& t0, const Vec3& t1, const Vec3& t2) {
+// The nearest of the edges flagged `search` (the triangle's boundary; the whole triangle when it is degenerate).
+PointTriangleResult nearest_on_edges(const Vec3& p, const Vec3& t0, const Vec3& t1, const Vec3& t2,
+                                     const std::array<bool, 3>& search) {
   using T = PointTriangleType;
-  const Vec3 e1 = t1 - t0, e2 = t2 - t0;
-  const Vec3 n = e1.cross(e2);
-  std::array<bool, 3> outside{true, true, true};
-  if (!plane_degenerate(n, e1, e2)) {
-    // The projection of p lies outside edge E_i when its barycentric coordinate opposite E_i is negative; the
-    // nearest point is then on an edge it lies outside of, so only those edges are searched.
-    outside[0] = e1.cross(p - t0).dot(n) < 0;
-    outside[1] = (t2 - t1).cross(p - t1).dot(n) < 0;
-    outside[2] = (t0 - t2).cross(p - t2).dot(n) < 0;
-    if (!outside[0] && !outside[1] && !outside[2]) return {T::P_T, plane_sq(p - t0, n)};
-  }
   static constexpr std::array<std::array<T, 3>, 3> kEdgeTypes{{{T::P_T0, T::P_T1, T::P_E0},
                                                                 {T::P_T1, T::P_T2, T::P_E1},
                                                                 {T::P_T2, T::P_T0, T::P_E2}}};
   const std::array<const Vec3*, 3> t{&t0, &t1, &t2};
   PointTriangleResult best{T::P_T0, kInf};
   for (int i = 0; i < 3; ++i) {
-    if (!outside[i]) continue;
+    if (!search[i]) continue;
     const Nearest near = point_segment(p, *t[i], *t[(i + 1) % 3]);
     if (near.d2 < best.d2) best = {kEdgeTypes[i][near.feature], near.d2};
   }
   return best;
 }
 
+PointTriangleResult classify_point_triangle(const Vec3& p, const Vec3& t0, const Vec3& t1, const Vec3& t2) {
+  const Vec3 e1 = t1 - t0, e2 = t2 - t0;
+  const Vec3 n = e1.cross(e2);
+  if (plane_degenerate(n, e1, e2)) return nearest_on_edges(p, t0, t1, t2, {true, true, true});
+  // The projection of p lies outside edge E_i when its barycentric coordinate opposite E_i is negative; the nearest
+  // point is then on an edge it lies outside of, so only those edges are searched.
+  const std::array<bool, 3> outside{e1.cross(p - t0).dot(n) < 0, (t2 - t1).cross(p - t1).dot(n) < 0,
+                                    (t0 - t2).cross(p - t2).dot(n) < 0};
+  if (!outside[0] && !outside[1] && !outside[2]) return {PointTriangleType::P_T, plane_sq(p - t0, n)};
+  return nearest_on_edges(p, t0, t1, t2, outside);
+}
+
 struct EdgeEdgeResult {
   EdgeEdgeType type;
   double d2;
 };
-EdgeEdgeResult classify_edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+// The minimum of the convex squared distance over the boundary of the parameter square: an endpoint against the
+// other segment.
+EdgeEdgeResult nearest_on_boundary(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
   using T = EdgeEdgeType;
-  const Vec3 u = a1 - a0, v = b1 - b0, w = b0 - a0;
-  const Vec3 n = u.cross(v);
-  if (!plane_degenerate(n, u, v)) {
-    // Parameters of the lines' closest points a0 + s·u and b0 + t·v.
-    const double nu = n.squaredNorm();
-    const double s = w.cross(v).dot(n) / nu, t = w.cross(u).dot(n) / nu;
-    if (s > 0 && s < 1 && t > 0 && t < 1) return {T::EA_EB, plane_sq(w, n)};
-  }
-  // Otherwise the minimum of the convex squared distance over the parameter square is on its boundary: an endpoint
-  // against the other segment.
   EdgeEdgeResult best{T::EA0_EB0, kInf};
   const auto consider = [&best](const Nearest& near, const std::array<T, 3>& types) {
     if (near.d2 < best.d2) best = {types[near.feature], near.d2};
@@ -225,9 +221,21 @@ EdgeEdgeResult classify_edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0
   return best;
 }
 
+EdgeEdgeResult classify_edge_edge(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  const Vec3 u = a1 - a0, v = b1 - b0, w = b0 - a0;
+  const Vec3 n = u.cross(v);
+  if (!plane_degenerate(n, u, v)) {
+    // Parameters of the lines' closest points a0 + s·u and b0 + t·v; when both are inside, that is the minimum.
+    const double nu = n.squaredNorm();
+    const double s = w.cross(v).dot(n) / nu, t = w.cross(u).dot(n) / nu;
+    if (s > 0 && s < 1 && t > 0 && t < 1) return {EdgeEdgeType::EA_EB, plane_sq(w, n)};
+  }
+  return nearest_on_boundary(a0, a1, b0, b1);
+}
+
 // The typed pieces on the 4 stacked points x[0..3]. A piece whose formula is degenerate by the classification's own
 // threshold (zero-length edge, collapsed triangle, parallel segments), which a caller's stale type can ask for,
-// falls back: a point–line to the nearer endpoint, a plane to the pair's own type.
+// falls back: a point–line to the nearer endpoint, a plane to the pair's own type (which is then never a plane).
 using Points = std::array<const Vec3*, 4>;
 
 double point_point_piece(const Points& x, int p, int q, Vec12* grad, Mat12* hess) {
@@ -281,7 +289,7 @@ double point_triangle_distance_sq(const Vec3& p, const Vec3& t0, const Vec3& t1,
     case T::P_T: break;
   }
   if (plane_degenerate((t1 - t0).cross(t2 - t0), t1 - t0, t2 - t0)) {
-    const PointTriangleType own = classify_point_triangle(p, t0, t1, t2).type;  // never P_T here
+    const PointTriangleType own = nearest_on_edges(p, t0, t1, t2, {true, true, true}).type;
     return point_triangle_distance_sq(p, t0, t1, t2, own, grad, hess);
   }
   return plane_piece(x, {0, 1}, {2, 1}, {3, 1}, grad, hess);
@@ -304,7 +312,7 @@ double edge_edge_distance_sq(const Vec3& a0, const Vec3& a1, const Vec3& b0, con
   }
   const Vec3 u = a1 - a0, v = b1 - b0;
   if (plane_degenerate(u.cross(v), u, v)) {
-    const EdgeEdgeType own = classify_edge_edge(a0, a1, b0, b1).type;  // never EA_EB here
+    const EdgeEdgeType own = nearest_on_boundary(a0, a1, b0, b1).type;
     return edge_edge_distance_sq(a0, a1, b0, b1, own, grad, hess);
   }
   return plane_piece(x, {2, 0}, {1, 0}, {3, 2}, grad, hess);
