@@ -187,9 +187,9 @@ TEST(Bvh, QueriesMatchALinearScanAndRefitMatchesABuild) {
     }
     if (n >= 100) {
       EXPECT_GT(total, 0u);
-      // Moving the boxes to unrelated places leaves the refit tree's nodes overlapping: the ratio that triggers
+      // Moving the boxes to unrelated places leaves the refit tree's nodes overlapping: the area that triggers
       // rebuilds must see it.
-      EXPECT_GT(refit.surface_area_ratio(), 2.0 * built.surface_area_ratio());
+      EXPECT_GT(refit.total_surface_area(), 2.0 * built.total_surface_area());
     }
   }
   Bvh bvh;
