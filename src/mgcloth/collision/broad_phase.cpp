@@ -51,11 +51,17 @@ void make_boxes(const SurfaceTopology& s, const PointBox& point_box, double infl
   });
 }
 
-void check_input(const SurfaceTopology& s, Index points, double inflate) {
+void check_input(const SurfaceTopology& s, const VecX& x, double inflate, const char* what = "position") {
+  const Index points = static_cast<Index>(x.size() / 3);
   if (!s.vertices.empty() && s.vertices.back() >= points)
     throw_error("broad phase: the surface uses point {} but the positions hold {} points", s.vertices.back(), points);
   if (!(inflate >= 0.0) || !std::isfinite(inflate))
     throw_error("broad phase: the inflation must be finite and non-negative, not {}", inflate);
+  // A NaN would make the tree's median split compare inconsistently, and a box that overlaps nothing hides contact.
+  for (Index p : s.vertices)
+    if (!vertex(x, p).allFinite())
+      throw_error<SolveError>("broad phase: the {} of point {} is not finite ({}, {}, {})", what, p, x[3 * p],
+                              x[3 * p + 1], x[3 * p + 2]);
 }
 
 /// The pairs of query primitives [0, n) in fixed chunks, each chunk's list ascending, the lists concatenated in
@@ -196,7 +202,7 @@ BroadPhase::BroadPhase(const SurfaceTopology* surface) : m_surface(surface) {
 }
 
 void BroadPhase::find(const VecX& x, double inflate, Candidates& out) {
-  check_input(*m_surface, static_cast<Index>(x.size() / 3), inflate);
+  check_input(*m_surface, x, inflate);
   find_with(
       [&](Index p) {
         Aabb b;
@@ -209,7 +215,8 @@ void BroadPhase::find(const VecX& x, double inflate, Candidates& out) {
 void BroadPhase::find_swept(const VecX& x, const VecX& d, double inflate, Candidates& out) {
   if (d.size() != x.size())
     throw_error("broad phase: the displacement has {} entries, the positions {}", d.size(), x.size());
-  check_input(*m_surface, static_cast<Index>(x.size() / 3), inflate);
+  check_input(*m_surface, x, inflate);
+  check_input(*m_surface, d, inflate, "displacement");
   find_with(
       [&](Index p) {
         const Vec3 a = vertex(x, p), b = a + vertex(d, p);
@@ -259,7 +266,7 @@ void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates
 }
 
 void find_brute_force(const SurfaceTopology& s, const VecX& x, double inflate, Candidates& out) {
-  check_input(s, static_cast<Index>(x.size() / 3), inflate);
+  check_input(s, x, inflate);
   std::vector<Aabb> triangles, edges, vertices;
   make_boxes(
       s,

@@ -79,10 +79,9 @@ class Bvh {
 
 template <class F>
 void Bvh::query(const Aabb& box, F&& f) const {
-  if (m_nodes.empty()) return;
-  // Median splits keep the depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
-  if (!m_nodes[0].box.overlaps(box)) return;
-  // Children are tested before they are pushed, so every node popped overlaps the query box.
+  if (m_nodes.empty() || !m_nodes[0].box.overlaps(box)) return;
+  // Children are tested before they are pushed, so every node popped overlaps the query box. Median splits keep the
+  // depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
   Index stack[64];
   int top = 0;
   stack[top++] = 0;
