@@ -77,7 +77,8 @@ size_t cgal_candidates(const SurfaceTopology& s, const VecX& x, std::vector<std:
     const Tri& tri = s.triangles[t];
     triangles.push_back(box({tri[0], tri[1], tri[2]}, static_cast<Index>(t)));
   }
-  for (size_t e = 0; e < s.edges.size(); ++e) edges.push_back(box({s.edges[e][0], s.edges[e][1]}, static_cast<Index>(e)));
+  for (size_t e = 0; e < s.edges.size(); ++e)
+    edges.push_back(box({s.edges[e][0], s.edges[e][1]}, static_cast<Index>(e)));
   vt.clear();
   ee.clear();
   CGAL::box_intersection_d(vertices.begin(), vertices.end(), triangles.begin(), triangles.end(),

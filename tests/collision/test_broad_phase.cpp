@@ -95,7 +95,9 @@ Candidates swept_brute_force(const SurfaceTopology& s, const VecX& x, const VecX
 
 /// Equal as sets, and the broad phase's list ascending without repeats (its documented, history-free order).
 void expect_same(const Candidates& got, const Candidates& want) {
-  auto ascending = [](const Pairs& p) { return std::adjacent_find(p.begin(), p.end(), std::greater_equal<>()) == p.end(); };
+  auto ascending = [](const Pairs& p) {
+    return std::adjacent_find(p.begin(), p.end(), std::greater_equal<>()) == p.end();
+  };
   EXPECT_TRUE(ascending(got.vertex_triangle));
   EXPECT_TRUE(ascending(got.edge_edge));
   auto as_set = [](Pairs p) {

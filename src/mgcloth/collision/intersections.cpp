@@ -97,7 +97,8 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
     }
   std::vector<TrianglePair> candidates;
   CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), [&](const Box& p, const Box& q) {
-    const Index a = static_cast<Index>(p.handle() - triangles.data()), b = static_cast<Index>(q.handle() - triangles.data());
+    const Index a = static_cast<Index>(p.handle() - triangles.data()),
+                b = static_cast<Index>(q.handle() - triangles.data());
     candidates.push_back({std::min(a, b), std::max(a, b)});
   });
 
