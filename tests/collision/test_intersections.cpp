@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 #include <set>
 
@@ -125,13 +126,16 @@ TEST(Intersections, AtMostMaxPairsAscendingAndTheCountOfAll) {
   EXPECT_EQ(pairs[2].b, 3);
 }
 
-TEST(Intersections, RejectsATriangleThatNamesAMissingPoint) {
+TEST(Intersections, RejectsAMissingOrNonFinitePoint) {
   try {
     find_intersections(points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}), {{0, 1, 2}, {0, 2, 3}});
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("triangle 1"), std::string::npos) << e.what();
   }
+  VecX bad = points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+  bad[4] = std::nan("");
+  EXPECT_THROW(find_intersections(bad, {{0, 1, 2}}), Error);
 }
 
 // ---------------------------------------------------------------------------------------------------------------

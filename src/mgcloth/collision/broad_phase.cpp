@@ -51,11 +51,17 @@ void make_boxes(const SurfaceTopology& s, const PointBox& point_box, double infl
   });
 }
 
-void check_input(const SurfaceTopology& s, Index points, double inflate) {
+void check_input(const SurfaceTopology& s, const VecX& x, double inflate, const char* what = "position") {
+  const Index points = static_cast<Index>(x.size() / 3);
   if (!s.vertices.empty() && s.vertices.back() >= points)
     throw_error("broad phase: the surface uses point {} but the positions hold {} points", s.vertices.back(), points);
   if (!(inflate >= 0.0) || !std::isfinite(inflate))
     throw_error("broad phase: the inflation must be finite and non-negative, not {}", inflate);
+  // A NaN would make the tree's median split compare inconsistently, and a box that overlaps nothing hides contact.
+  for (Index p : s.vertices)
+    if (!vertex(x, p).allFinite())
+      throw_error<SolveError>("broad phase: the {} of point {} is not finite ({}, {}, {})", what, p, x[3 * p],
+                              x[3 * p + 1], x[3 * p + 2]);
 }
 
 /// The pairs of query primitives [0, n) in fixed chunks, each chunk's list ascending, the lists concatenated in
@@ -182,13 +188,10 @@ void Bvh::update_nodes() {
   }
 }
 
-double Bvh::surface_area_ratio() const {
-  if (m_nodes.empty()) return 1.0;
-  const double root = surface_area(m_nodes[0].box);
-  if (!(root > 0.0)) return 1.0;
+double Bvh::total_surface_area() const {
   double sum = 0.0;
   for (const Node& node : m_nodes) sum += surface_area(node.box);
-  return sum / root;
+  return sum;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -199,7 +202,7 @@ BroadPhase::BroadPhase(const SurfaceTopology* surface) : m_surface(surface) {
 }
 
 void BroadPhase::find(const VecX& x, double inflate, Candidates& out) {
-  check_input(*m_surface, static_cast<Index>(x.size() / 3), inflate);
+  check_input(*m_surface, x, inflate);
   find_with(
       [&](Index p) {
         Aabb b;
@@ -212,7 +215,8 @@ void BroadPhase::find(const VecX& x, double inflate, Candidates& out) {
 void BroadPhase::find_swept(const VecX& x, const VecX& d, double inflate, Candidates& out) {
   if (d.size() != x.size())
     throw_error("broad phase: the displacement has {} entries, the positions {}", d.size(), x.size());
-  check_input(*m_surface, static_cast<Index>(x.size() / 3), inflate);
+  check_input(*m_surface, x, inflate);
+  check_input(*m_surface, d, inflate, "displacement");
   find_with(
       [&](Index p) {
         const Vec3 a = vertex(x, p), b = a + vertex(d, p);
@@ -224,18 +228,19 @@ void BroadPhase::find_swept(const VecX& x, const VecX& d, double inflate, Candid
       inflate, out);
 }
 
-// Why 2×: by the surface-area heuristic a query's cost grows with the tree's surface-area ratio, so at 2× the queries
-// of every later call cost up to twice what a fresh tree's would, while a rebuild costs about one call's queries
-// (bench/broad_phase_bench.cpp, "rebuild" against "refit": see bench/RESULTS.md). A lower threshold rebuilds on the
-// ordinary drift of a deforming cloth without making queries measurably faster; a higher one lets a cloth that
-// crumples from flat keep a tree whose nodes overlap each other everywhere.
-void BroadPhase::update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& ratio_at_build, bool fresh) {
+// Why 1.5×: a cloth that folds or crumples keeps each node's triangles a compact patch, so refit trees stay as good as
+// fresh ones (folding a 10K sheet flat into four layers over 20 calls grows no tree by 1.25×); what spoils them is
+// motion that pulls apart what a node grouped, such as layers unfolding. There, never rebuilding made the calls 3×
+// slower, and rebuilding once the area had grown by 1.25× or 1.5× was fastest over the sequence, ~10% ahead of 2×
+// and of rebuilding every call (a build costs about a fifth of a call's queries). Of the two, 1.5× rebuilds less
+// often for the same time. Measured with `mgcloth_bench_broad_phase --sweep`.
+void BroadPhase::update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& area_at_build, bool fresh) {
   if (!fresh && tree.size() == boxes.size()) {
     tree.refit(boxes);
-    if (tree.surface_area_ratio() <= kRebuildGrowth * ratio_at_build) return;
+    if (tree.total_surface_area() <= m_rebuild_growth * area_at_build) return;
   }
   tree.build(boxes);
-  ratio_at_build = tree.surface_area_ratio();
+  area_at_build = tree.total_surface_area();
   ++m_builds;
 }
 
@@ -244,8 +249,8 @@ void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates
   const SurfaceTopology& s = *m_surface;
   make_boxes(s, point_box, inflate, m_triangle_boxes, m_edge_boxes, m_vertex_boxes);
   const bool fresh = m_builds == 0;
-  update_tree(m_triangle_boxes, m_triangles, m_triangle_ratio_at_build, fresh);
-  update_tree(m_edge_boxes, m_edges, m_edge_ratio_at_build, fresh);
+  update_tree(m_triangle_boxes, m_triangles, m_triangle_area_at_build, fresh);
+  update_tree(m_edge_boxes, m_edges, m_edge_area_at_build, fresh);
   gather_pairs(static_cast<Index>(s.vertices.size()), m_chunks, out.vertex_triangle,
                [&](Index v, std::vector<Pair>& pairs) {
                  const Index p = s.vertices[v];
@@ -261,7 +266,7 @@ void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates
 }
 
 void find_brute_force(const SurfaceTopology& s, const VecX& x, double inflate, Candidates& out) {
-  check_input(s, static_cast<Index>(x.size() / 3), inflate);
+  check_input(s, x, inflate);
   std::vector<Aabb> triangles, edges, vertices;
   make_boxes(
       s,

@@ -57,9 +57,10 @@ class Bvh {
   template <class F>
   void query(const Aabb& box, F&& f) const;
   size_t size() const { return m_leaf_box.size(); }
-  /// Σ over the nodes of their surface areas / the root's: by the surface-area heuristic (MacDonald & Booth 1990),
-  /// the expected number of nodes a small query box visits, up to a constant. 1 for an empty tree or a flat root.
-  double surface_area_ratio() const;
+  /// Σ over the nodes of their boxes' surface areas: by the surface-area heuristic (MacDonald & Booth 1990), what
+  /// the number of nodes a query visits grows with. A refit tree whose boxes have moved away from the ones they
+  /// were grouped with has a larger one than a fresh tree over the same boxes.
+  double total_surface_area() const;
 
   static constexpr Index kLeafSize = 4;
 
@@ -78,20 +79,20 @@ class Bvh {
 
 template <class F>
 void Bvh::query(const Aabb& box, F&& f) const {
-  if (m_nodes.empty()) return;
-  // Median splits keep the depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
+  if (m_nodes.empty() || !m_nodes[0].box.overlaps(box)) return;
+  // Children are tested before they are pushed, so every node popped overlaps the query box. Median splits keep the
+  // depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
   Index stack[64];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& node = m_nodes[stack[--top]];
-    if (!node.box.overlaps(box)) continue;
     if (node.left < 0) {
       for (Index k = node.first; k < node.first + node.count; ++k)
         if (m_leaf_box[k].overlaps(box)) f(m_order[k]);
     } else {
-      stack[top++] = node.right;
-      stack[top++] = node.left;
+      if (m_nodes[node.right].box.overlaps(box)) stack[top++] = node.right;
+      if (m_nodes[node.left].box.overlaps(box)) stack[top++] = node.left;
     }
   }
 }
@@ -111,20 +112,23 @@ class BroadPhase {
   /// How many times a tree was built (the first call builds both): for tests and statistics.
   Index builds() const { return m_builds; }
 
-  /// A tree is rebuilt when its surface-area ratio has grown this much since its build (see broad_phase.cpp).
-  static constexpr double kRebuildGrowth = 2.0;
+  /// A tree is rebuilt when its total surface area has grown this much since its build (see broad_phase.cpp).
+  static constexpr double kRebuildGrowth = 1.5;
+  /// Another threshold, for measurements: 0 rebuilds every call, infinity never (but for a change of count).
+  void set_rebuild_growth(double growth) { m_rebuild_growth = growth; }
 
  private:
   template <class PointBox>
   void find_with(const PointBox& point_box, double inflate, Candidates& out);
-  void update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& ratio_at_build, bool fresh);
+  void update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& area_at_build, bool fresh);
 
   const SurfaceTopology* m_surface;
   Bvh m_triangles, m_edges;
   std::vector<Aabb> m_triangle_boxes, m_edge_boxes, m_vertex_boxes;
-  double m_triangle_ratio_at_build = 1.0, m_edge_ratio_at_build = 1.0;
+  double m_triangle_area_at_build = 0.0, m_edge_area_at_build = 0.0;
   std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results, kept for their capacity
   Index m_builds = 0;
+  double m_rebuild_growth = kRebuildGrowth;
 };
 
 /// O(n²) reference of BroadPhase::find, for tests.

@@ -71,10 +71,15 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
   std::vector<std::array<Point, 3>> corners(n);
   std::vector<char> degenerate(n, 0);
   for (Index t = 0; t < n; ++t)
-    for (int k = 0; k < 3; ++k)
-      if (triangles[t][k] < 0 || triangles[t][k] >= points)
-        throw_error("intersection check: triangle {} uses point {}, but there are {} points", t, triangles[t][k],
-                    points);
+    for (int k = 0; k < 3; ++k) {
+      const Index p = triangles[t][k];
+      if (p < 0 || p >= points)
+        throw_error("intersection check: triangle {} uses point {}, but there are {} points", t, p, points);
+      // CGAL's predicates are undefined on NaN, and an infinite point cannot be placed.
+      if (!vertex(x, p).allFinite())
+        throw_error("intersection check: point {} of triangle {} is not finite ({}, {}, {})", p, t, x[3 * p],
+                    x[3 * p + 1], x[3 * p + 2]);
+    }
   parallel_for(n, [&](Index t) {
     for (int k = 0; k < 3; ++k) {
       const auto p = vertex(x, triangles[t][k]);
@@ -92,7 +97,8 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
     }
   std::vector<TrianglePair> candidates;
   CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), [&](const Box& p, const Box& q) {
-    const Index a = static_cast<Index>(p.handle() - triangles.data()), b = static_cast<Index>(q.handle() - triangles.data());
+    const Index a = static_cast<Index>(p.handle() - triangles.data()),
+                b = static_cast<Index>(q.handle() - triangles.data());
     candidates.push_back({std::min(a, b), std::max(a, b)});
   });
 
