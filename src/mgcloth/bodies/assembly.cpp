@@ -74,13 +74,49 @@ VecX Assembly::v() const {
 }
 
 VecX Assembly::prepare_step(const StepTime& step) {
-  if (m_bodies.size() == 1) return m_bodies[0]->prepare_step(step);
-  VecX out(3 * num_points());
-  for (size_t b = 0; b < m_bodies.size(); ++b) {
-    const VecX y = m_bodies[b]->prepare_step(step);
-    out.segment(3 * m_offsets[b], y.size()) = y;
+  const VecX from = m_contact ? x() : VecX();
+  VecX out;
+  if (m_bodies.size() == 1) {
+    out = m_bodies[0]->prepare_step(step);
+  } else {
+    out.resize(3 * num_points());
+    for (size_t b = 0; b < m_bodies.size(); ++b) {
+      const VecX y = m_bodies[b]->prepare_step(step);
+      out.segment(3 * m_offsets[b], y.size()) = y;
+    }
+  }
+  if (m_contact) {
+    // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
+    const VecX d = out - from;
+    out = from + objective().max_step(from, d, 1.0) * d;
   }
   return out;
+}
+
+void Assembly::add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness) {
+  if (m_contact) throw_error("Assembly: cloth contact added twice");
+  if (thickness.size() != m_bodies.size()) throw_error("Assembly: {} thicknesses for {} bodies", thickness.size(), m_bodies.size());
+  std::vector<physics::ContactSurface> surfaces;
+  for (size_t b = 0; b < m_bodies.size(); ++b) {
+    auto s = m_bodies[b]->contact_surface(thickness[b]);
+    if (!s) continue;
+    s->offset = m_offsets[b];
+    surfaces.push_back(std::move(*s));
+    m_bodies[b]->set_obstacle_projection(false);
+  }
+  if (surfaces.empty()) return;
+  auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params);
+  m_contact = term.get();
+  if (m_bodies.size() == 1) {
+    physics::Objective& own = m_bodies[0]->objective();
+    own.add(std::move(term));
+    own.finalize();
+  } else if (m_objective) {
+    m_objective->add(std::move(term));
+    m_objective->finalize();
+  } else {
+    m_pending_contact = std::move(term);
+  }
 }
 
 std::unique_ptr<physics::Objective> Assembly::joint_objective(const std::vector<const physics::Objective*>& parts) const {
@@ -102,6 +138,10 @@ physics::Objective& Assembly::objective() {
     std::vector<const physics::Objective*> parts;
     for (Body* b : m_bodies) parts.push_back(&b->objective());
     m_objective = joint_objective(parts);
+    if (m_pending_contact) {
+      m_objective->add(std::move(m_pending_contact));
+      m_objective->finalize();
+    }
   }
   return *m_objective;
 }

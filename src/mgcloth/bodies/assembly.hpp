@@ -33,6 +33,13 @@ class Assembly {
   physics::Objective& objective();
   /// The joint hierarchy (see the class comment), built on first use of each kind and kept.
   hierarchy::Hierarchy solver_hierarchy(bool rediscretized);
+  /// Cloth–cloth contact, self and between bodies, over every body with a contact surface (Body::contact_surface,
+  /// `thickness` per body), as one term of the group's objective: the body's own objective for a group of one body,
+  /// else a coupling term of the joint one. Obstacle projections are turned off (Body::set_obstacle_projection) and
+  /// the start point of every step is limited to an intersection-free motion from the current state.
+  void add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness);
+  /// The cloth contact term; null without one.
+  const physics::ClothContact* cloth_contact() const { return m_contact; }
   /// Every body's feasibility projection on its part of the joint iterate; empty when no body has one.
   std::function<Index(VecX&)> feasibility_projection() const;
   /// Hands each body its part of the solve's result (finish_step), then writes the bodies' ends (projected) back.
@@ -48,6 +55,8 @@ class Assembly {
   std::vector<Index> m_offsets;  ///< per body, then the total
   std::unique_ptr<physics::Objective> m_objective;
   std::unique_ptr<Union> m_galerkin, m_rediscretized;
+  physics::ClothContact* m_contact = nullptr;
+  std::unique_ptr<physics::ClothContact> m_pending_contact;  ///< a coupling term until the joint objective exists
 };
 
 }  // namespace mgcloth::bodies

@@ -2,9 +2,11 @@
 #include <mgcloth/core/types.hpp>
 #include <mgcloth/hierarchy/hierarchy.hpp>
 #include <mgcloth/mesh/tri_mesh.hpp>
+#include <mgcloth/physics/cloth_contact.hpp>
 #include <mgcloth/physics/objective.hpp>
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -64,6 +66,13 @@ class Body {
     x() = x_new;
     v() = v_new;
   }
+
+  /// The surface that takes part in cloth contact (bodies::Assembly::add_cloth_contact), in this body's numbering
+  /// (offset 0), with the given thickness; nullopt for bodies that are no contact surface (shells).
+  virtual std::optional<physics::ContactSurface> contact_surface(double /*thickness*/) const { return std::nullopt; }
+  /// Whether the body moves its points out of obstacles by projection (feasibility_projection, finish_step). Cloth
+  /// contact turns it off: a projection is no motion that continuous collision detection has checked.
+  virtual void set_obstacle_projection(bool /*on*/) {}
 
   /// Static analysis (load stepping) rather than dynamics.
   virtual bool is_static() const { return false; }

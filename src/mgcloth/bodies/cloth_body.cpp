@@ -207,6 +207,12 @@ std::vector<Vec3> ClothBody::pin_targets(double t) const {
     Vec3 offset = Vec3::Zero();
     if (s.motion == "constant_velocity") offset = s.velocity * t;
     if (s.motion == "keyframes") offset = m_pin_curves[m_pin_spec[p]](t);
+    if (s.motion == "rotation") {
+      const double tr = std::min(t, s.duration);
+      const Eigen::AngleAxisd turn(s.angular_velocity * tr, s.axis.normalized());
+      targets[p] = s.center + s.velocity * tr + turn * (m_pin_rest[p] - s.center);
+      continue;
+    }
     targets[p] = m_pin_rest[p] + offset;
   }
   return targets;
@@ -258,7 +264,7 @@ VecX ClothBody::prepare_step(double t, double h) {
 void ClothBody::finish_step(VecX& x_new, double h) {
   VecX pushed = VecX::Zero(m_mesh.num_vertices());
   const physics::ObstaclePenalty* c = contact();
-  if (c) physics::project_out_of_obstacles(x_new, c->obstacle_data(), &pushed);
+  if (c && m_project_obstacles) physics::project_out_of_obstacles(x_new, c->obstacle_data(), &pushed);
   m_v = (x_new - m_x) / h;
   if (c) physics::apply_friction(x_new, m_v, m_mass, *c, h, pushed);
   m_x = x_new;
@@ -266,8 +272,18 @@ void ClothBody::finish_step(VecX& x_new, double h) {
 
 std::function<Index(VecX&)> ClothBody::feasibility_projection() const {
   const physics::ObstaclePenalty* c = contact();
-  if (!c) return {};
+  if (!c || !m_project_obstacles) return {};
   return [c](VecX& y) { return physics::project_out_of_obstacles(y, c->obstacle_data()); };
+}
+
+std::optional<physics::ContactSurface> ClothBody::contact_surface(double thickness) const {
+  physics::ContactSurface s;
+  s.name = m_name;
+  s.tris = m_mesh.tris;
+  s.material = m_mesh.u;
+  s.area = m_area;
+  s.thickness = thickness;
+  return s;
 }
 
 void ClothBody::accept_step(const VecX& x_new, const VecX& v_new) {

@@ -66,6 +66,8 @@ class ClothBody final : public Body {
   void accept_step(const VecX& x_new, const VecX& v_new) override;
   /// Projection out of the obstacles at the step's end (placed by prepare_step); empty without obstacles.
   std::function<Index(VecX&)> feasibility_projection() const override;
+  std::optional<physics::ContactSurface> contact_surface(double thickness) const override;
+  void set_obstacle_projection(bool on) override { m_project_obstacles = on; }
   /// Where the pins pull at time t: the scene's pin motion, or the targets a program set (set_pin_targets).
   std::vector<Vec3> pin_targets(double t) const;
   /// Scripted pin targets (pinned_vertices() order), set between steps by a program driving the simulation: from
@@ -113,6 +115,7 @@ class ClothBody final : public Body {
   mesh::Topology m_topology;
   double m_material_scale = 1.0;
   VecX m_mass, m_area, m_x, m_v;
+  bool m_project_obstacles = true;
   physics::Material m_material;
   Vec3 m_gravity = Vec3::Zero();
   double m_seam_stiffness = 0.0;

@@ -33,8 +33,14 @@ struct PinSpec {
   std::vector<Vec2> points;     ///< by material coordinate: the nearest vertex
   std::optional<std::pair<Vec2, Vec2>> region;  ///< every vertex in a material-space box
   double stiffness = 1.0e4;     ///< N/m
-  std::string motion = "none";  ///< none | constant_velocity | keyframes
-  Vec3 velocity = Vec3::Zero();
+  std::string motion = "none";  ///< none | constant_velocity | keyframes | rotation
+  Vec3 velocity = Vec3::Zero();  ///< constant_velocity; rotation: the centre's velocity
+  /// rotation: the targets turn about the line through `center` (world, at t = 0) along `axis` at
+  /// `angular_velocity` (rad/s, right-handed about the axis) for `duration` seconds, then hold.
+  Vec3 axis = Vec3::UnitX();
+  Vec3 center = Vec3::Zero();
+  double angular_velocity = 0.0;
+  double duration = kInf;
   std::vector<double> key_times;
   std::vector<Vec3> key_offsets;
 };
@@ -49,6 +55,8 @@ struct ClothSpec {
   Vec3 initial_velocity = Vec3::Zero();
   /// N/m, the springs closing stitched seams; 0 in a spec means "100 × in-plane stiffness E·t" (resolved at parse).
   double seam_stiffness = 0.0;
+  /// m, this cloth's thickness for cloth contact (two cloths touch at the mean of theirs); 0: the scene's.
+  double contact_thickness = 0.0;
 };
 
 }  // namespace mgcloth::bodies

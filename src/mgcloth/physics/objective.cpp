@@ -51,6 +51,17 @@ void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd
   for (const auto& t : m_terms) t->add_hessian(x, H, project_psd);
 }
 
+double Objective::max_step(const VecX& x, const VecX& d, double alpha_max) const {
+  double a = alpha_max;
+  for (const auto& t : m_terms)
+    if (t->limits_steps()) a = std::min(a, t->max_step(x, d, a));
+  return a;
+}
+
+bool Objective::limits_steps() const {
+  return std::any_of(m_terms.begin(), m_terms.end(), [](const auto& t) { return t->limits_steps(); });
+}
+
 const linalg::BlockMatrix3& Objective::hessian_pattern() const {
   require_finalized();
   return m_pattern;

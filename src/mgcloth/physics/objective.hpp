@@ -36,6 +36,11 @@ class Objective {
   /// Lets every term update its stencils at x; rebuilds the pattern (and rebinds the terms) when one changed.
   /// Returns whether the pattern changed. The pattern is a cache of the terms' stencils, hence const.
   bool update_stencils(const VecX& x) const;
+  /// min over the terms of Term::max_step: the largest α <= alpha_max whose motion x + [0, α]·d every term admits.
+  double max_step(const VecX& x, const VecX& d, double alpha_max = 1.0) const;
+  /// Whether some term limits steps (max_step can return less than alpha_max): the solver must then use it on every
+  /// trial point (docs/ARCHITECTURE.md).
+  bool limits_steps() const;
   /// How many times the pattern was built (finalize() makes it 1); users of the pattern rebuild when it moves.
   long pattern_version() const { return m_pattern_version; }
   /// An empty matrix with the pattern, to be filled by hessian().

@@ -27,6 +27,10 @@ class SubObjectiveTerm final : public Term {
   void bind(const linalg::BlockMatrix3& pattern) override;
   /// The sub-objective's stencils at its part of x: when its pattern changes, so does the joint one.
   bool update_stencils(const VecX& x) override { return m_objective->update_stencils(local(x)); }
+  double max_step(const VecX& x, const VecX& d, double alpha_max) const override {
+    return m_objective->max_step(local(x), local(d), alpha_max);
+  }
+  bool limits_steps() const override { return m_objective->limits_steps(); }
 
  private:
   VecX local(const VecX& x) const { return x.segment(3 * m_offset, m_objective->num_dofs()); }

@@ -29,6 +29,12 @@ class Term {
   /// gives the new ones and the objective rebuilds its pattern. The value and gradient must not depend on the
   /// stencils chosen (a pair outside them contributes nothing there). Most terms' stencils are fixed.
   virtual bool update_stencils(const VecX& /*x*/) { return false; }
+  /// The largest α in [0, alpha_max] such that the whole motion x + [0, α]·d stays where this term's energy is
+  /// finite (cloth contact: no pair reaches zero distance, by continuous collision detection). Solvers limit every
+  /// trial point with it, so that no step jumps over an infinite wall. Terms that are finite everywhere do not limit.
+  virtual double max_step(const VecX& /*x*/, const VecX& /*d*/, double alpha_max) const { return alpha_max; }
+  /// Whether max_step() can ever return less than alpha_max.
+  virtual bool limits_steps() const { return false; }
   /// Terms with a device implementation write their data for the device pipeline here and return true; false: the
   /// pipeline cannot evaluate this term (it then refuses the objective, naming the term).
   virtual bool describe_device(DeviceObjective& /*out*/) const { return false; }

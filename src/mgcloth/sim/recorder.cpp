@@ -6,6 +6,7 @@
 #include <mgcloth/sim/recorder.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -109,14 +110,20 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 }
 
 std::string Recorder::stats_header() {
-  return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected";
+  return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
+         "contact_pairs,min_distance,intersections";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
   const auto& r = s.report;
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{}", s.frame, s.step, s.sim_time, s.solver,
-                     r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
-                     r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected);
+  // Without cloth contact its columns stay empty (not zero, which would claim a check that did not run).
+  const std::string pairs = s.contact_pairs >= 0 ? std::to_string(s.contact_pairs) : "";
+  const std::string dmin = std::isnan(s.min_distance) ? "" : fmt::format("{:.6g}", s.min_distance);
+  const std::string crossings = s.intersections >= 0 ? std::to_string(s.intersections) : "";
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{}", s.frame, s.step, s.sim_time,
+                     s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
+                     r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
+                     pairs, dmin, crossings);
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

@@ -112,8 +112,15 @@ PinSpec parse_pin(JsonReader r) {
     r.fail("vertices", "a pin needs \"vertices\", \"points\" or \"region\"");
   p.stiffness = r.number("stiffness", p.stiffness, 1e-6, 1e12);
   if (auto m = r.optional_object("motion")) {
-    p.motion = m->choice("type", "none", {"none", "constant_velocity", "keyframes"});
-    if (p.motion == "constant_velocity") p.velocity = m->vec3("velocity", Vec3::Zero());
+    p.motion = m->choice("type", "none", {"none", "constant_velocity", "keyframes", "rotation"});
+    if (p.motion == "constant_velocity" || p.motion == "rotation") p.velocity = m->vec3("velocity", Vec3::Zero());
+    if (p.motion == "rotation") {
+      p.axis = m->vec3("axis", p.axis);
+      if (!(p.axis.norm() > 0.0)) m->fail("axis", "must not be zero");
+      p.center = m->vec3("center", p.center);
+      p.angular_velocity = m->number("angular_velocity", 0.0, -1e4, 1e4);
+      p.duration = m->number("duration", 1e30, 0.0);
+    }
     if (p.motion == "keyframes") {
       p.key_times = parse_keys(*m, [&](JsonReader& k) { p.key_offsets.push_back(k.vec3("offset", Vec3::Zero())); });
     }
@@ -140,6 +147,7 @@ ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
   for (auto& p : r.objects("pins")) c.pins.push_back(parse_pin(p));
   c.initial_velocity = r.vec3("initial_velocity", Vec3::Zero());
   c.seam_stiffness = r.number("seam_stiffness", 100.0 * c.material.youngs_modulus * c.material.thickness, 1e-6, 1e12);
+  c.contact_thickness = r.number("contact_thickness", 0.0, 0.0, 1.0);
   r.finish();
   return c;
 }
@@ -260,6 +268,16 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     s.contact.stiffness = c->number("stiffness", s.contact.stiffness, 0.0, 1e15);
     c->finish();
   }
+  if (auto c = r.optional_object("cloth_contact")) {
+    auto& cc = s.cloth_contact;
+    cc.enabled = c->boolean("enabled", true);
+    cc.thickness = c->number("thickness", cc.thickness, 1e-6, 1.0);
+    cc.params.stiffness = c->number("stiffness", cc.params.stiffness, 1e-6, 1e15);
+    cc.params.barrier_fraction = c->number("barrier_fraction", cc.params.barrier_fraction, 1e-3, 1.0);
+    cc.params.ccd_separation = c->number("ccd_separation", cc.params.ccd_separation, 1e-3, 0.9);
+    cc.check_intersections = c->boolean("check_intersections", cc.check_intersections);
+    c->finish();
+  }
   if (auto so = r.optional_object("solver")) {
     s.solver.name = so->choice("name", s.solver.name, solvers::solver_names());
     s.solver.stop.rel_grad = so->number("rel_grad", s.solver.stop.rel_grad, 0.0, 1.0);
@@ -275,7 +293,18 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   (void)solvers::resolved_params(s.solver, file, "solver.params");  // rejects unknown solver parameters now
   if (s.energy_form == physics::EnergyForm::Projective && !s.shells.empty())
     r.fail("energy_form", "shells have no projective form (the PD form is the cloths'); use \"elastic\"");
-  solvers::check_energy_form(*solvers::make_solver(s.solver, file, "solver.params"), s.energy_form, file);
+  {
+    const auto solver = solvers::make_solver(s.solver, file, "solver.params");
+    solvers::check_energy_form(*solver, s.energy_form, file);
+    if (s.cloth_contact.enabled && !s.cloths.empty()) {
+      if (!solver->supports_step_limits())
+        r.fail("solver.name", fmt::format("solver \"{}\" does not keep its trial points intersection-free, which "
+                                          "\"cloth_contact\" needs; choose one that does: {}",
+                                          s.solver.name, fmt::join(solvers::step_limiting_solvers(), ", ")));
+      if (!s.solve_jointly && s.cloths.size() > 1)
+        r.fail("solve_bodies", "\"cloth_contact\" between cloths needs them solved together: \"solve_bodies\": \"jointly\"");
+    }
+  }
   if (auto h = r.optional_object("hierarchy")) {
     auto& p = s.hierarchy;
     p.ratio = h->number("ratio", p.ratio, 1.5, 16.0);
@@ -381,7 +410,13 @@ Json to_json(const Scene& s) {
       if (p.region) pj["region"] = {{"min", vec_json(p.region->first)}, {"max", vec_json(p.region->second)}};
       pj["stiffness"] = p.stiffness;
       pj["motion"] = {{"type", p.motion}};
-      if (p.motion == "constant_velocity") pj["motion"]["velocity"] = vec_json(p.velocity);
+      if (p.motion == "constant_velocity" || p.motion == "rotation") pj["motion"]["velocity"] = vec_json(p.velocity);
+      if (p.motion == "rotation") {
+        pj["motion"]["axis"] = vec_json(p.axis);
+        pj["motion"]["center"] = vec_json(p.center);
+        pj["motion"]["angular_velocity"] = p.angular_velocity;
+        pj["motion"]["duration"] = std::isfinite(p.duration) ? p.duration : 1e30;
+      }
       if (p.motion == "keyframes") {
         pj["motion"]["keys"] = Json::array();
         for (size_t k = 0; k < p.key_times.size(); ++k)
@@ -391,6 +426,7 @@ Json to_json(const Scene& s) {
     }
     cj["initial_velocity"] = vec_json(c.initial_velocity);
     cj["seam_stiffness"] = c.seam_stiffness;
+    if (s.cloth_contact.enabled || c.contact_thickness > 0.0) cj["contact_thickness"] = c.contact_thickness;
     j["cloths"].push_back(cj);
   }
   j["shells"] = Json::array();
@@ -421,6 +457,14 @@ Json to_json(const Scene& s) {
     j["obstacles"].push_back(oj);
   }
   j["contact"] = {{"thickness", s.contact.thickness}, {"stiffness", s.contact.stiffness}};
+  if (s.cloth_contact.enabled) {
+    const auto& cc = s.cloth_contact;
+    j["cloth_contact"] = {{"thickness", cc.thickness},
+                          {"stiffness", cc.params.stiffness},
+                          {"barrier_fraction", cc.params.barrier_fraction},
+                          {"ccd_separation", cc.params.ccd_separation},
+                          {"check_intersections", cc.check_intersections}};
+  }
   j["solver"] = {{"name", s.solver.name},
                  {"rel_grad", s.solver.stop.rel_grad},
                  {"abs_grad", s.solver.stop.abs_grad},

@@ -39,6 +39,16 @@ struct ObstacleSpec {
   geometry::Obstacle build() const;
 };
 
+/// Contact between cloths and within each cloth (self-contact): on when the scene has "cloth_contact".
+struct ClothContactSpec {
+  bool enabled = false;
+  double thickness = 1e-3;  ///< m, every cloth's unless it sets "contact_thickness"
+  physics::ClothContactParams params;
+  /// Count intersections with the exact checker (collision::find_intersections) after every step (stats.csv's
+  /// "intersections"); the guarantee is the solvers', this is the independent check of it.
+  bool check_intersections = true;
+};
+
 struct OutputSpec {
   std::string dir = "out";
   int every = 1;  ///< write every n-th frame
@@ -63,6 +73,7 @@ struct Scene {
   std::vector<ShellSpec> shells;
   std::vector<ObstacleSpec> obstacles;
   physics::ContactParams contact;
+  ClothContactSpec cloth_contact;
   solvers::SolverConfig solver;
   hierarchy::HierarchyParams hierarchy;  ///< mesh hierarchy for the multilevel solvers (pins are always kept)
   OutputSpec output;

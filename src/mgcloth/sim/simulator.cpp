@@ -1,3 +1,4 @@
+#include <mgcloth/collision/intersections.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/out_of_memory.hpp>
 #include <mgcloth/core/parallel.hpp>
@@ -105,6 +106,36 @@ Simulator::Simulator(Scene scene, const std::vector<std::shared_ptr<const mesh::
   }
   for (size_t g = 0; g < m_groups.size(); ++g)
     m_solvers.push_back(solvers::make_solver(m_scene.solver, m_scene.file, "solver.params"));
+  if (m_scene.cloth_contact.enabled) add_cloth_contact();
+}
+
+void Simulator::add_cloth_contact() {
+  for (auto& group : m_groups) {
+    std::vector<double> thickness;
+    for (const Body* b : group->bodies()) {
+      double t = m_scene.cloth_contact.thickness;
+      for (const auto& c : m_scene.cloths)
+        if (c.name == b->name() && c.contact_thickness > 0.0) t = c.contact_thickness;
+      thickness.push_back(t);
+    }
+    group->add_cloth_contact(m_scene.cloth_contact.params, thickness);
+    const physics::ClothContact* contact = group->cloth_contact();
+    if (!contact) continue;
+    size_t count = 0;
+    const auto found = collision::find_intersections(group->x(), contact->triangles(), 5, &count);
+    if (found.empty()) continue;
+    std::vector<std::string> named;
+    for (const auto& p : found) {
+      const auto [sa, ta] = contact->triangle_owner(p.a);
+      const auto [sb, tb] = contact->triangle_owner(p.b);
+      named.push_back(fmt::format("cloth \"{}\" triangle {} and cloth \"{}\" triangle {}", contact->surfaces()[sa].name,
+                                  ta, contact->surfaces()[sb].name, tb));
+    }
+    throw InputError(fmt::format("{}: the cloths intersect at the start, which cloth contact cannot undo: {} triangle "
+                                 "pairs intersect ({}{}); move or rotate the cloths apart (the contact layer is "
+                                 "{} m)", m_scene.file, count, fmt::join(named, "; "), count > found.size() ? "; …" : "",
+                                 m_scene.cloth_contact.thickness));
+  }
 }
 
 namespace {
@@ -187,6 +218,7 @@ solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_fac
   if (solver.needs_hierarchy() || solver.needs_level_objectives())
     problem.hierarchy = group.solver_hierarchy(solver.needs_level_objectives());
   problem.project = group.feasibility_projection();
+  solvers::check_step_limits(solver, *problem.objective, m_scene.file);
   return problem;
 }
 
@@ -220,6 +252,17 @@ std::vector<StepStats> Simulator::step() {
     else
       group.finish_step(x, h);
     s.projected = static_cast<Index>(((x - before).array() != 0.0).reshaped(3, x.size() / 3).colwise().any().count());
+    if (const physics::ClothContact* contact = group.cloth_contact()) {
+      const VecX end = group.x();
+      const physics::ContactStats cs = contact->stats(end);
+      s.contact_pairs = cs.pairs;
+      s.min_distance = cs.min_distance;
+      if (m_scene.cloth_contact.check_intersections) {
+        size_t count = 0;
+        collision::find_intersections(end, contact->triangles(), 0, &count);
+        s.intersections = static_cast<Index>(count);
+      }
+    }
     std::vector<std::string> names;
     for (const Body* b : group.bodies()) {
       names.push_back(b->name());

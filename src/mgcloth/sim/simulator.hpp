@@ -25,6 +25,12 @@ struct StepStats {
   solvers::SolveReport report;
   double wall_ms = 0.0;  ///< the whole step: set-up, solve, projection, friction
   Index projected = 0;   ///< vertices pushed out of obstacles after the solve
+  /// Cloth contact at the step's end (scene "cloth_contact"; -1 and NaN without): pairs inside the contact layer,
+  /// the smallest distance between non-neighbouring primitives (within reach of the contact layer; +inf where none
+  /// is that close), and triangle pairs that intersect by the exact checker (-1: not checked).
+  Index contact_pairs = -1;
+  double min_distance = std::numeric_limits<double>::quiet_NaN();
+  Index intersections = -1;
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
@@ -122,6 +128,9 @@ class Simulator {
   Scene m_scene;
   /// InputError when cloth c (scene.cloths[c]) starts deeper inside an obstacle than the contact thickness.
   void check_start_outside_obstacles(size_t c, const ClothBody& body) const;
+  /// Adds cloth contact to every group (scene "cloth_contact") and refuses a start whose cloths intersect, naming
+  /// the triangles.
+  void add_cloth_contact();
   std::vector<geometry::Obstacle> m_obstacles;
   /// The motion of each obstacle, shared with every copy of it (cloth bodies, contact terms) so that a steer
   /// reaches them all.

@@ -21,6 +21,8 @@ class CpuVectors : public FmgBackend {
   void gradient(Vec x, Vec g) override { m_obj.gradient((*this)[x], (*this)[g]); }
   bool has_projection() const override { return static_cast<bool>(m_project); }
   Index project(Vec x) override { return m_project ? m_project((*this)[x]) : 0; }
+  double max_step(Vec x, Vec d, double alpha_max) override { return m_obj.max_step((*this)[x], (*this)[d], alpha_max); }
+  bool limits_steps() const override { return m_obj.limits_steps(); }
   double energy_magnitude(Vec x) override;
   bool at_roundoff_floor(Vec x, double gnorm, double* floor) override;
   double dot(Vec a, Vec b) override { return (*this)[a].dot((*this)[b]); }

@@ -34,12 +34,16 @@ bool steepest_descent(FmgBackend& b, bool use_model, double& e, long* energy_eva
   }
   if (!(alpha > 0.0)) {
     // Secant curvature along −g from a probe a millionth of the gradient's length scale.
-    const double probe = 1e-6 / std::sqrt(gg);
+    const double probe = b.limits_steps() ? b.max_step(V::X, V::R, 1e-6 / std::sqrt(gg)) : 1e-6 / std::sqrt(gg);
+    if (!(probe > 0.0)) return false;
     b.combine(V::Trial, 1.0, V::X, probe, V::R);
     b.gradient(V::Trial, V::GTrial);
     const double curvature = (b.dot(V::GTrial, V::R) - b.dot(V::G, V::R)) / probe;
     alpha = curvature > 0.0 ? gg / curvature : probe;
   }
+  // Trial points stay where the energy is finite and the motion admissible (cloth contact).
+  if (b.limits_steps()) alpha = b.max_step(V::X, V::R, alpha);
+  if (!(alpha > 0.0)) return false;
   LineSearchParams ls;
   ls.max_steps = 60;
   const LineSearchResult r = backtrack(
@@ -115,6 +119,15 @@ class Solve {
     return omega;
   }
   bool weighted() const { return prm.chebyshev_rho > 0.0; }
+  /// Pulls Trial back along the segment from X so that the motion X → Trial is admissible (Term::max_step: cloth
+  /// contact stays intersection-free); false when no part of it is. GTrial is the scratch for the step.
+  bool limit_trial() {
+    if (!b.limits_steps()) return true;
+    b.combine(V::GTrial, 1.0, V::Trial, -1.0, V::X);
+    const double t = b.max_step(V::X, V::GTrial, 1.0);
+    if (t < 1.0) b.combine(V::Trial, 1.0, V::X, t, V::GTrial);
+    return t > 0.0;
+  }
   /// x ← trial, the step kept as s (momentum) unless `forget`.
   void accept(double alpha, double scale_s, bool energy_known, double e_new) {
     if (weighted()) b.copy(V::XPrev, V::X);
@@ -155,7 +168,12 @@ bool Solve::projective_step() {
     const double w = next_omega();
     b.combine(V::Trial, 1.0, V::X, 1.0, V::D);
     b.weight(V::Trial, w, V::Trial, V::XPrev);
+    limit_trial();
     b.take(V::XPrev, V::X);
+    b.take(V::X, V::Trial);
+  } else if (b.limits_steps()) {
+    b.combine(V::Trial, 1.0, V::X, 1.0, V::D);
+    limit_trial();
     b.take(V::X, V::Trial);
   } else {
     b.combine(V::X, 1.0, V::X, 1.0, V::D);
@@ -172,6 +190,7 @@ bool Solve::weighted_step(double model_alpha) {
   if (w == 1.0) return false;
   b.combine(V::Trial, 1.0, V::X, model_alpha, V::D);
   b.weight(V::Trial, w, V::Trial, V::XPrev);
+  limit_trial();
   const double et = energy(V::Trial);
   if (std::isfinite(et) && et < e) {
     b.take(V::XPrev, V::X);
@@ -216,6 +235,7 @@ double Solve::search_direction(double cr, double dAd, double model_alpha) {
 // the energy sum, the Armijo test compares noise (as in Newton), and the gradient is the reliable measure.
 bool Solve::accept_by_gradient() {
   b.combine(V::Trial, 1.0, V::X, 1.0, V::P);
+  if (!limit_trial()) return false;
   const double gt = timed(n.gradient_ms, [&] {
     b.gradient(V::Trial, V::GTrial);
     return b.norm(V::GTrial);
@@ -230,13 +250,21 @@ bool Solve::accept_by_gradient() {
 // vertices into an obstacle is not cut short for all the others by the penalty's steep wall.
 bool Solve::line_search(Index level, double p_slope) {
   double& start = beta[static_cast<size_t>(level)];
+  // Where the motion is limited (cloth contact), every trial stays below the admissible step; a step cut short by
+  // contact says nothing about the level's scale, so it does not change the level's start.
+  const double alpha0 = b.limits_steps() ? b.max_step(V::X, V::P, start) : start;
+  if (alpha0 < start) logger().debug("{}: level {} step limited to {:.3g} of {:.3g}", name, level, alpha0, start);
+  if (!(alpha0 > 0.0)) {
+    ++n.rejected;
+    return false;
+  }
   const LineSearchResult r = backtrack(
       [&](double alpha) {
         b.combine(V::Trial, 1.0, V::X, alpha, V::P);
         if (b.has_projection()) b.project(V::Trial);
         return energy(V::Trial);
       },
-      e, p_slope, start, prm.line_search_params);
+      e, p_slope, alpha0, prm.line_search_params);
   if (!r.success) {
     start = std::max(1e-3, 0.5 * start);
     // Close to round-off the energy differences are noisy well above the model's own threshold.
@@ -246,7 +274,7 @@ bool Solve::line_search(Index level, double p_slope) {
   }
   if (r.alpha < prm.refresh_below) model_poor = true;
   // A first-trial acceptance lets the next start probe twice as far (never beyond the model step).
-  start = std::min(1.0, r.trials == 1 ? 2.0 * r.alpha : r.alpha);
+  if (alpha0 == start) start = std::min(1.0, r.trials == 1 ? 2.0 * r.alpha : r.alpha);
   accept(r.alpha, r.alpha, true, r.energy);
   return true;
 }
@@ -288,6 +316,7 @@ bool Solve::newton_step(int k, SolveReport& rep, bool& stagnated) {
   const bool below_noise = !(predicted > 1e-13 * b.energy_magnitude(V::X));
   b.combine(V::Trial, 1.0, V::X, 1.0, V::C);
   if (b.has_projection()) b.project(V::Trial);
+  if (!limit_trial()) return false;
   const double et = energy(V::Trial);
   const double gt = timed(n.gradient_ms, [&] {
     b.gradient(V::Trial, V::GTrial);

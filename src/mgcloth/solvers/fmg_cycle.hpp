@@ -38,6 +38,10 @@ class FmgBackend {
   virtual void gradient(Vec x, Vec g) = 0;
   /// Makes x feasible against the obstacles (§4.5); the number of vertices moved. False has_projection(): none.
   virtual bool has_projection() const = 0;
+  /// The objective's Term::max_step: the largest α <= alpha_max whose motion x + [0, α]·d is admissible (cloth
+  /// contact: intersection-free). Backends whose objectives never limit steps return alpha_max.
+  virtual double max_step(Vec /*x*/, Vec /*d*/, double alpha_max) { return alpha_max; }
+  virtual bool limits_steps() const { return false; }
   virtual Index project(Vec x) = 0;
   /// Σ |term value| at x: the magnitude whose round-off bounds what an energy difference can resolve.
   virtual double energy_magnitude(Vec x) = 0;

@@ -34,7 +34,9 @@ LineSearchResult backtrack(const std::function<double(double)>& energy_at, doubl
 
 LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, const VecX& x, double e0,
                               const VecX& d, double slope, double alpha0, const LineSearchParams& p, VecX& trial,
-                              double model_decrease) {
+                              double model_decrease, double alpha_limit) {
+  alpha0 = std::min(alpha0, alpha_limit);
+  if (!(alpha0 > 0.0)) return {};
   LineSearchResult r = backtrack(
       [&](double alpha) {
         trial = x + alpha * d;
@@ -44,7 +46,7 @@ LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, 
   if (r.success && r.trials == 1 && model_decrease > 0.0 && p.expand_ratio > 0.0 &&
       e0 - r.energy > p.expand_ratio * model_decrease * r.alpha) {
     VecX longer;
-    for (double a = 2.0 * r.alpha; a <= p.max_alpha; a *= 2.0) {
+    for (double a = 2.0 * r.alpha; a <= std::min(p.max_alpha, alpha_limit); a *= 2.0) {
       longer = x + a * d;
       const double el = energy(longer);
       if (!(std::isfinite(el) && el < r.energy && el <= e0 + p.armijo * a * slope)) break;

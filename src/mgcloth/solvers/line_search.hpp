@@ -36,9 +36,9 @@ LineSearchResult backtrack(const std::function<double(double alpha)>& energy_at,
 
 /// backtrack() along d from x for vectors in memory, the accepted point in `trial`. `model_decrease` (> 0,
 /// optional) is the decrease the quadratic model predicts for α = 1: a first trial that beats it by expand_ratio
-/// tries longer steps.
+/// tries longer steps. No trial goes beyond `alpha_limit` (the objective's max_step along d, where it limits steps).
 LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, const VecX& x, double e0,
                               const VecX& d, double slope, double alpha0, const LineSearchParams& params,
-                              VecX& trial, double model_decrease = 0.0);
+                              VecX& trial, double model_decrease = 0.0, double alpha_limit = kInf);
 
 }  // namespace mgcloth::solvers

@@ -104,7 +104,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     }
     double slope = g.dot(d);
     if (!m_params.use_line_search) {
-      x += d;
+      x += obj.max_step(x, d, 1.0) * d;
       if (problem.project) problem.project(x);
       e = obj.value(x);
       obj.gradient(x, g);
@@ -120,7 +120,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     // Once the predicted decrease is below the round-off of the energy itself, the Armijo test compares noise;
     // there, a full step is judged by the gradient norm instead.
     if (-slope < 1e-13 * std::max(1.0, std::abs(e))) {
-      trial = x + d;
+      trial = x + obj.max_step(x, d, 1.0) * d;
       VecX g_trial;
       obj.gradient(trial, g_trial);
       const double gn = g_trial.norm();
@@ -136,7 +136,8 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});
       continue;
     }
-    const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope);
+    const double limit = obj.limits_steps() ? obj.max_step(x, d, m_params.line_search.max_alpha) : kInf;
+    const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope, limit);
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
       double floor = 0.0;

@@ -31,6 +31,9 @@ class Newton final : public NonlinearSolver {
   explicit Newton(NewtonParams params = {});
   explicit Newton(NewtonParams params, std::string name) : Newton(std::move(params)) { m_name = std::move(name); }
   std::string name() const override { return m_name; }
+  /// The Projective Dynamics presets keep one constant matrix per step, which cannot hold a contact barrier whose
+  /// stiffness grows without bound: they are refused with cloth contact.
+  bool supports_step_limits() const override { return !m_params.projective; }
   std::vector<physics::EnergyForm> energy_forms() const override {
     if (m_params.projective) return {physics::EnergyForm::Projective};
     return NonlinearSolver::energy_forms();

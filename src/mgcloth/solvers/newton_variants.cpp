@@ -93,7 +93,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
     direction(obj, x, g, p);
     if (m_params.mode != ExactNewtonMode::LineSearch) {
-      const double alpha = linearized ? 1.0 : m_params.alpha;
+      const double alpha = obj.max_step(x, p, linearized ? 1.0 : m_params.alpha);
       x += alpha * p;
       advance(k, alpha);
       continue;
@@ -103,7 +103,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     // there a full step is judged by the gradient norm instead (as Newton does, but relative to |E| alone, which
     // for cloth energies of a few centijoules is where the noise is).
     if (-slope < 1e-13 * std::abs(e)) {
-      trial = x + p;
+      trial = x + obj.max_step(x, p, 1.0) * p;
       obj.gradient(trial, g_trial);
       if (!(g_trial.norm() < gnorm)) {
         rep.status = at_roundoff_floor(obj, x, gnorm) ? "stagnated" : "stalled";
@@ -113,7 +113,8 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
       advance(k, 1.0);
       continue;
     }
-    const auto ls = backtracking(energy, x, e, p, slope, 1.0, m_params.line_search, trial);
+    const double limit = obj.limits_steps() ? obj.max_step(x, p, m_params.line_search.max_alpha) : kInf;
+    const auto ls = backtracking(energy, x, e, p, slope, 1.0, m_params.line_search, trial, 0.0, limit);
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
       double floor = 0.0;

@@ -30,6 +30,7 @@ class ExactNewton final : public NonlinearSolver {
   /// An empty name is the mode's: "newton-ls", "newton-damped" or "linearized".
   explicit ExactNewton(ExactNewtonParams params = {}, std::string name = "");
   std::string name() const override { return m_name; }
+  bool supports_step_limits() const override { return true; }
   /// Report counters: hessian_assemblies, factorizations, cholmod_fallbacks, max_shift, steepest_descent_steps,
   /// line_search_evaluations.
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;

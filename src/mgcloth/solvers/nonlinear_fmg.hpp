@@ -67,6 +67,9 @@ class NonlinearFMG final : public NonlinearSolver {
  public:
   explicit NonlinearFMG(FmgParams params = {}, std::string name = "fmg");
   std::string name() const override { return m_name; }
+  /// The Projective Dynamics presets keep one constant matrix per step, which cannot hold a contact barrier whose
+  /// stiffness grows without bound: they are refused with cloth contact.
+  bool supports_step_limits() const override { return !m_params.projective; }
   bool needs_hierarchy() const override { return !m_params.single_level; }
   std::vector<physics::EnergyForm> energy_forms() const override {
     if (m_params.projective) return {physics::EnergyForm::Projective};

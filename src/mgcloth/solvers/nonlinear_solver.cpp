@@ -1,6 +1,7 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/interrupt.hpp>
 #include <mgcloth/solvers/cpu_backend.hpp>
+#include <mgcloth/solvers/factory.hpp>
 #include <mgcloth/solvers/nonlinear_solver.hpp>
 
 #include <algorithm>
@@ -42,6 +43,26 @@ void check_energy_form(const NonlinearSolver& solver, physics::EnergyForm form, 
   throw InputError(fmt::format("{}: solver \"{}\" cannot minimize the {} energy form, only the {} one: set "
                                "\"energy_form\": \"{}\" in the scene, or choose another solver", where, solver.name(),
                                physics::energy_form_name(form), own, own));
+}
+
+std::vector<std::string> step_limiting_solvers() {
+  std::vector<std::string> out;
+  for (const std::string& name : solver_names()) {
+    SolverConfig c;
+    c.name = name;
+    try {
+      if (make_solver(c, "", "")->supports_step_limits()) out.push_back(name);
+    } catch (const std::exception&) {  // a solver this build or machine cannot make (no device) limits nothing
+    }
+  }
+  return out;
+}
+
+void check_step_limits(const NonlinearSolver& solver, const physics::Objective& objective, const std::string& where) {
+  if (solver.supports_step_limits() || !objective.limits_steps()) return;
+  throw InputError(fmt::format("{}: solver \"{}\" does not keep its trial points intersection-free, which cloth "
+                               "contact needs; choose one that does: {}", where, solver.name(),
+                               fmt::join(step_limiting_solvers(), ", ")));
 }
 
 void check_finite(const std::string& solver, double energy, double grad_norm, int iteration) {

@@ -78,6 +78,9 @@ class NonlinearSolver {
     return {physics::EnergyForm::Elastic, physics::EnergyForm::Projective};
   }
   bool can_minimize(physics::EnergyForm form) const;
+  /// Whether every trial point of minimize() is limited by the objective's max_step (Term::max_step), as an
+  /// objective with cloth contact needs to stay intersection-free (check_step_limits refuses the others).
+  virtual bool supports_step_limits() const { return false; }
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
@@ -105,6 +108,12 @@ class NonlinearSolver {
 /// Throws InputError, naming `where` (e.g. the scene file), when `solver` cannot minimize `form`, saying which form
 /// it minimizes and how to choose it.
 void check_energy_form(const NonlinearSolver& solver, physics::EnergyForm form, const std::string& where);
+
+/// Throws InputError, naming `where`, when the objective limits steps (cloth contact) and `solver` does not keep
+/// its trial points within them, naming the solvers that do.
+void check_step_limits(const NonlinearSolver& solver, const physics::Objective& objective, const std::string& where);
+/// The solver names whose solvers support step limits (for messages and docs).
+std::vector<std::string> step_limiting_solvers();
 
 /// carried_state() encoding: `tag` (the solver kind, so that a state is never read by another kind), a NUL, then
 /// the values' bytes in the host's order.

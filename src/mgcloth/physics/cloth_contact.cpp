@@ -1,0 +1,330 @@
+#include <mgcloth/collision/ccd.hpp>
+#include <mgcloth/collision/distance.hpp>
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/core/log.hpp>
+#include <mgcloth/core/parallel.hpp>
+#include <mgcloth/physics/cloth_contact.hpp>
+#include <mgcloth/physics/psd.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace mgcloth::physics {
+
+using Vec12 = collision::Vec12;
+using Mat12 = collision::Mat12;
+
+double ContactLayer::value(double d, double* d1, double* d2) const {
+  if (!(d > 0.0)) {
+    if (d1) *d1 = -kInf;
+    if (d2) *d2 = kInf;
+    return kInf;
+  }
+  if (d >= r) {
+    if (d1) *d1 = 0.0;
+    if (d2) *d2 = 0.0;
+    return 0.0;
+  }
+  const double gap = r - d;
+  double e = k / (3.0 * r) * gap * gap * gap;
+  if (d1) *d1 = -k / r * gap * gap;
+  if (d2) *d2 = 2.0 * k / r * gap;
+  if (d < tau) {
+    // IPC's barrier (Li et al. 2020, eq. 6) and its two derivatives.
+    const double K = kappa(), L = std::log(d / tau), s = d - tau;
+    e += -K * s * s * L;
+    if (d1) *d1 += K * (-2.0 * s * L - s * s / d);
+    if (d2) *d2 += K * (-2.0 * L - 4.0 * s / d + s * s / (d * d));
+  }
+  return e;
+}
+
+namespace {
+
+Vec3 at(const VecX& x, Index i) { return x.segment<3>(3 * i); }
+
+Vec3 lift(const Mat2X& u, Index i) { return Vec3(u(0, i), u(1, i), 0.0); }
+
+}  // namespace
+
+ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params)
+    : m_surfaces(std::move(surfaces)), m_n(num_points), m_params(params) {
+  if (!(params.stiffness > 0.0) || !std::isfinite(params.stiffness))
+    throw_input_error("cloth contact: stiffness must be positive and finite (got {})", params.stiffness);
+  if (!(params.barrier_fraction > 0.0 && params.barrier_fraction <= 1.0))
+    throw_input_error("cloth contact: barrier_fraction must be in (0, 1] (got {})", params.barrier_fraction);
+  if (!(params.ccd_separation > 0.0 && params.ccd_separation < 1.0))
+    throw_input_error("cloth contact: ccd_separation must be in (0, 1) (got {})", params.ccd_separation);
+  m_surface_of_point.assign(static_cast<size_t>(m_n), -1);
+  m_point_area = VecX::Zero(m_n);
+  m_point_r = VecX::Zero(m_n);
+  std::vector<Tri> tris;
+  for (size_t s = 0; s < m_surfaces.size(); ++s) {
+    const ContactSurface& c = m_surfaces[s];
+    if (!(c.thickness > 0.0) || !std::isfinite(c.thickness))
+      throw_input_error("cloth \"{}\": contact thickness must be positive and finite (got {})", c.name, c.thickness);
+    m_max_r = std::max(m_max_r, c.thickness);
+    m_triangle_start.push_back(static_cast<Index>(tris.size()));
+    const Index np = static_cast<Index>(c.area.size());
+    if (c.offset < 0 || c.offset + np > m_n || c.material.cols() != np)
+      throw_error("cloth contact: surface \"{}\" does not fit the unknown", c.name);
+    for (Index i = 0; i < np; ++i) {
+      m_surface_of_point[c.offset + i] = static_cast<Index>(s);
+      m_point_area[c.offset + i] = c.area[i];
+      m_point_r[c.offset + i] = c.thickness;
+    }
+    for (const Tri& t : c.tris) tris.push_back({t[0] + c.offset, t[1] + c.offset, t[2] + c.offset});
+  }
+  m_triangle_start.push_back(static_cast<Index>(tris.size()));
+  m_topology = collision::make_surface_topology(std::move(tris));
+  // An edge stands for a third of the area of each triangle it borders, so edges cover the surface once.
+  std::map<std::pair<Index, Index>, Index> edge_index;
+  for (size_t e = 0; e < m_topology.edges.size(); ++e)
+    edge_index[{m_topology.edges[e][0], m_topology.edges[e][1]}] = static_cast<Index>(e);
+  m_edge_area = VecX::Zero(static_cast<Index>(m_topology.edges.size()));
+  for (size_t s = 0; s < m_surfaces.size(); ++s) {
+    const ContactSurface& c = m_surfaces[s];
+    for (const Tri& t : c.tris) {
+      const Vec3 a = lift(c.material, t[0]), b = lift(c.material, t[1]), d = lift(c.material, t[2]);
+      const double area = 0.5 * (b - a).cross(d - a).norm();
+      for (int k = 0; k < 3; ++k) {
+        Index i = t[k] + c.offset, j = t[(k + 1) % 3] + c.offset;
+        if (i > j) std::swap(i, j);
+        m_edge_area[edge_index.at({i, j})] += area / 3.0;
+      }
+    }
+  }
+  m_delta = m_max_r;
+  m_broad = std::make_unique<collision::BroadPhase>(&m_topology);
+}
+
+ClothContact::~ClothContact() = default;
+
+std::pair<size_t, Index> ClothContact::triangle_owner(Index t) const {
+  const auto it = std::upper_bound(m_triangle_start.begin(), m_triangle_start.end(), t);
+  const size_t s = static_cast<size_t>(it - m_triangle_start.begin()) - 1;
+  return {s, t - m_triangle_start[s]};
+}
+
+double ClothContact::distance(const Pair& p, const VecX& x) const {
+  const double s = p.edge_edge
+                       ? collision::edge_edge_distance_sq(at(x, p.v[0]), at(x, p.v[1]), at(x, p.v[2]), at(x, p.v[3]))
+                       : collision::point_triangle_distance_sq(at(x, p.v[0]), at(x, p.v[1]), at(x, p.v[2]),
+                                                               at(x, p.v[3]));
+  return std::sqrt(s);
+}
+
+bool ClothContact::same_surface_neighbours(const Pair& p) const {
+  const Index s = m_surface_of_point[p.v[0]];
+  if (s != m_surface_of_point[p.v[1]] || s != m_surface_of_point[p.v[2]] || s != m_surface_of_point[p.v[3]])
+    return false;
+  const ContactSurface& c = m_surfaces[static_cast<size_t>(s)];
+  const auto u = [&](int k) { return lift(c.material, p.v[k] - c.offset); };
+  const double d2 = p.edge_edge ? collision::edge_edge_distance_sq(u(0), u(1), u(2), u(3))
+                                : collision::point_triangle_distance_sq(u(0), u(1), u(2), u(3));
+  return d2 < p.r * p.r;
+}
+
+double ClothContact::pair_energy(const Pair& p, const VecX& x, Vec12* g, Mat12* H, bool project_psd) const {
+  const Vec3 a = at(x, p.v[0]), b = at(x, p.v[1]), c = at(x, p.v[2]), e = at(x, p.v[3]);
+  Vec12 gs;
+  Mat12 Hs;
+  double s = 0.0;
+  if (p.edge_edge) {
+    const auto type = collision::edge_edge_type(a, b, c, e);
+    s = collision::edge_edge_distance_sq(a, b, c, e, type, (g || H) ? &gs : nullptr, H ? &Hs : nullptr);
+  } else {
+    const auto type = collision::point_triangle_type(a, b, c, e);
+    s = collision::point_triangle_distance_sq(a, b, c, e, type, (g || H) ? &gs : nullptr, H ? &Hs : nullptr);
+  }
+  const double d = std::sqrt(std::max(s, 0.0));
+  if (d >= p.r) {
+    if (g) g->setZero();
+    if (H) H->setZero();
+    return 0.0;
+  }
+  const ContactLayer layer(p.r, m_params.barrier_fraction, p.weight);
+  double d1 = 0.0, d2 = 0.0;
+  const double psi = layer.value(d, &d1, &d2);
+  if (!std::isfinite(psi)) {
+    if (g) g->setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (H) H->setConstant(std::numeric_limits<double>::quiet_NaN());
+    return kInf;
+  }
+  // d = √s: ∇d = ∇s/(2d), ∇²d = ∇²s/(2d) − ∇s∇sᵀ/(4d³).
+  if (g || H) {
+    const Vec12 gd = gs / (2.0 * d);
+    if (g) *g = d1 * gd;
+    if (H) {
+      *H = d2 * gd * gd.transpose() + d1 * (Hs / (2.0 * d) - gd * gd.transpose() / d);
+      if (project_psd) physics::project_psd(*H);
+    }
+  }
+  return psi;
+}
+
+void ClothContact::ensure_near(const VecX& x) const {
+  if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
+  if (m_near_base.size() == x.size()) {
+    const double moved = (x - m_near_base).reshaped(3, m_n).colwise().squaredNorm().maxCoeff();
+    if (moved <= m_delta * m_delta) return;
+  }
+  logger().debug("cloth contact: near pairs rebuilt");
+  const double reach = m_max_r + 2.0 * m_delta;
+  m_broad->find(x, 0.5 * reach, m_candidates);
+  const auto& vt = m_candidates.vertex_triangle;
+  const auto& ee = m_candidates.edge_edge;
+  const Index nvt = static_cast<Index>(vt.size()), nee = static_cast<Index>(ee.size());
+  std::vector<Pair> all(static_cast<size_t>(nvt + nee));
+  std::vector<char> keep(all.size(), 0);
+  parallel_for(nvt + nee, [&](Index k) {
+    Pair& p = all[static_cast<size_t>(k)];
+    if (k < nvt) {
+      const Index v = m_topology.vertices[vt[k][0]];
+      const Tri& t = m_topology.triangles[vt[k][1]];
+      p.v = {v, t[0], t[1], t[2]};
+      p.edge_edge = false;
+      p.weight = m_params.stiffness * m_point_area[v];
+      p.r = 0.5 * (m_point_r[v] + m_point_r[t[0]]);
+    } else {
+      const auto& [ea, eb] = ee[k - nvt];
+      const auto& A = m_topology.edges[ea];
+      const auto& B = m_topology.edges[eb];
+      p.v = {A[0], A[1], B[0], B[1]};
+      p.edge_edge = true;
+      p.weight = m_params.stiffness * 0.5 * (m_edge_area[ea] + m_edge_area[eb]);
+      p.r = 0.5 * (m_point_r[A[0]] + m_point_r[B[0]]);
+    }
+    if (distance(p, x) >= p.r + 2.0 * m_delta) return;
+    if (same_surface_neighbours(p)) return;
+    keep[static_cast<size_t>(k)] = 1;
+  });
+  m_near.clear();
+  for (size_t k = 0; k < all.size(); ++k)
+    if (keep[k]) m_near.push_back(all[k]);
+  m_near_base = x;
+}
+
+std::vector<Index> ClothContact::active(const VecX& x) const {
+  ensure_near(x);
+  std::vector<Index> out;
+  for (size_t k = 0; k < m_near.size(); ++k)
+    if (distance(m_near[k], x) < m_near[k].r) out.push_back(static_cast<Index>(k));
+  return out;
+}
+
+double ClothContact::value(const VecX& x) const {
+  ensure_near(x);
+  return parallel_sum(static_cast<Index>(m_near.size()),
+                      [&](Index k) { return pair_energy(m_near[static_cast<size_t>(k)], x, nullptr, nullptr, false); });
+}
+
+void ClothContact::add_gradient(const VecX& x, VecX& g) const {
+  const std::vector<Index> act = active(x);
+  std::vector<Vec12> ge(act.size());
+  parallel_for(static_cast<Index>(act.size()), [&](Index k) {
+    pair_energy(m_near[static_cast<size_t>(act[k])], x, &ge[static_cast<size_t>(k)], nullptr, false);
+  });
+  for (size_t k = 0; k < act.size(); ++k) {
+    const Pair& p = m_near[static_cast<size_t>(act[k])];
+    for (int a = 0; a < 4; ++a) g.segment<3>(3 * p.v[a]) += ge[k].segment<3>(3 * a);
+  }
+}
+
+void ClothContact::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
+  const std::vector<Index> act = active(x);
+  std::vector<Mat12> He(act.size());
+  parallel_for(static_cast<Index>(act.size()), [&](Index k) {
+    pair_energy(m_near[static_cast<size_t>(act[k])], x, nullptr, &He[static_cast<size_t>(k)], project_psd);
+  });
+  for (size_t k = 0; k < act.size(); ++k) {
+    const Pair& p = m_near[static_cast<size_t>(act[k])];
+    const auto it = std::lower_bound(m_stencils.begin(), m_stencils.end(), p.v);
+    if (it == m_stencils.end() || *it != p.v)
+      throw_error("cloth contact: an active pair is missing from the Hessian's pattern (update_stencils not called)");
+    const auto& slots = m_slots[static_cast<size_t>(it - m_stencils.begin())];
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) H.block(slots[4 * a + b]) += He[k].block<3, 3>(3 * a, 3 * b);
+  }
+}
+
+void ClothContact::collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const {
+  for (const auto& s : m_stencils)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) pairs.emplace_back(s[a], s[b]);
+}
+
+void ClothContact::bind(const linalg::BlockMatrix3& pattern) {
+  m_slots.resize(m_stencils.size());
+  for (size_t k = 0; k < m_stencils.size(); ++k)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const Index slot = pattern.find(m_stencils[k][a], m_stencils[k][b]);
+        if (slot < 0) throw_error("cloth contact: stencil block missing from the pattern");
+        m_slots[k][4 * a + b] = slot;
+      }
+}
+
+bool ClothContact::update_stencils(const VecX& x) {
+  const std::vector<Index> act = active(x);
+  bool missing = false;
+  for (Index k : act)
+    if (!std::binary_search(m_stencils.begin(), m_stencils.end(), m_near[static_cast<size_t>(k)].v)) {
+      missing = true;
+      break;
+    }
+  if (!missing) return false;
+  // Pairs a little outside the layer are kept in the pattern too, so that a pair that enters next does not change it.
+  m_stencils.clear();
+  for (const Pair& p : m_near)
+    if (distance(p, x) < p.r + m_delta) m_stencils.push_back(p.v);
+  std::sort(m_stencils.begin(), m_stencils.end());
+  m_stencils.erase(std::unique(m_stencils.begin(), m_stencils.end()), m_stencils.end());
+  logger().debug("cloth contact: new pattern, {} stencils", m_stencils.size());
+  return true;
+}
+
+double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) const {
+  if (!(alpha_max > 0.0)) return 0.0;
+  const VecX step = alpha_max * d;
+  collision::Candidates swept;
+  // Boxes a hair larger than the motion's own: a pair that collides has overlapping swept boxes whatever the
+  // rounding of the box corners.
+  m_broad->find_swept(x, step, 1e-6 * m_max_r, swept);
+  const auto& vt = swept.vertex_triangle;
+  const auto& ee = swept.edge_edge;
+  const Index nvt = static_cast<Index>(vt.size()), nee = static_cast<Index>(ee.size());
+  const double s = m_params.ccd_separation;
+  std::vector<double> t(static_cast<size_t>(nvt + nee), 1.0);
+  parallel_for(nvt + nee, [&](Index k) {
+    if (k < nvt) {
+      const Index v = m_topology.vertices[vt[k][0]];
+      const Tri& f = m_topology.triangles[vt[k][1]];
+      t[static_cast<size_t>(k)] =
+          collision::point_triangle_ccd(at(x, v), at(x, f[0]), at(x, f[1]), at(x, f[2]), at(step, v), at(step, f[0]),
+                                        at(step, f[1]), at(step, f[2]), s, 1.0);
+    } else {
+      const auto& A = m_topology.edges[ee[k - nvt][0]];
+      const auto& B = m_topology.edges[ee[k - nvt][1]];
+      t[static_cast<size_t>(k)] =
+          collision::edge_edge_ccd(at(x, A[0]), at(x, A[1]), at(x, B[0]), at(x, B[1]), at(step, A[0]),
+                                   at(step, A[1]), at(step, B[0]), at(step, B[1]), s, 1.0);
+    }
+  });
+  const double tmin = t.empty() ? 1.0 : *std::min_element(t.begin(), t.end());
+  return alpha_max * tmin;
+}
+
+ContactStats ClothContact::stats(const VecX& x) const {
+  ensure_near(x);
+  ContactStats out;
+  for (const Pair& p : m_near) {
+    const double d = distance(p, x);
+    out.min_distance = std::min(out.min_distance, d);
+    if (d < p.r) ++out.pairs;
+  }
+  return out;
+}
+
+}  // namespace mgcloth::physics

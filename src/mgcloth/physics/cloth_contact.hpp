@@ -1,0 +1,132 @@
+#pragma once
+#include <mgcloth/collision/broad_phase.hpp>
+#include <mgcloth/physics/term.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace mgcloth::physics {
+
+/// The contact layer's energy per unit weight as a function of the distance d between two primitives, for a layer
+/// of thickness r (the distance at which two cloth mid-surfaces of thicknesses t_a, t_b touch: (t_a + t_b)/2):
+///   ψ(d) = k/(3r)·(r − d)³ + κ·b(d),   b(d) = −(d − τ)² ln(d/τ) for d < τ, else 0,   κ = k·r/τ.
+/// The cubic is the obstacle penalty's (C² where a pair enters the layer, curvature at most 2k); the log term is
+/// the barrier of Li et al. 2020 (IPC, eq. 6), C² at τ, which makes d = 0 unreachable. With τ = r/4 the curvature
+/// is bounded in the outer three quarters of the layer, where contact rests under cloth loads (the cubic alone holds
+/// five stacked sheets at r − d ≈ r/5); the barrier only acts on impacts the cubic cannot stop. κ = k·r/τ makes
+/// the barrier's force at d = τ/2 about the cubic's largest force k·r.
+struct ContactLayer {
+  double r = 1e-3;
+  double tau = 0.25e-3;
+  double k = 1.0;
+  ContactLayer() = default;
+  ContactLayer(double r, double tau_fraction, double k) : r(r), tau(tau_fraction * r), k(k) {}
+  double kappa() const { return k * r / tau; }
+  /// ψ(d), ψ'(d), ψ''(d) (derivatives filled when non-null); ψ = +∞ for d <= 0.
+  double value(double d, double* d1 = nullptr, double* d2 = nullptr) const;
+};
+
+struct ClothContactParams {
+  double stiffness = 1.0e5;        ///< N/m³: k of a pair = stiffness × the area the pair stands for
+  double barrier_fraction = 0.25;  ///< τ/r
+  /// Continuous collision detection stops a motion where a pair has come down to this fraction of its distance
+  /// (Li et al. 2021, Alg. 1's s): the largest admissible step keeps every pair at least this far apart relative to
+  /// where it started.
+  double ccd_separation = 0.1;
+};
+
+/// One cloth (or a part of the unknown) that takes part in contact: its triangles in the unknown's numbering, its
+/// material coordinates (pairs of one cloth closer than the layer in material space are neighbours, not contact)
+/// and its contact thickness.
+struct ContactSurface {
+  std::string name;
+  Index offset = 0;         ///< first point of this cloth in the unknown
+  std::vector<Tri> tris;    ///< in the cloth's own numbering
+  Mat2X material;           ///< per point of the cloth
+  VecX area;                ///< lumped material area per point of the cloth (m²)
+  double thickness = 1e-3;  ///< m
+};
+
+/// What the contact term saw at the last point it was evaluated for statistics (contact_pairs, min_distance).
+struct ContactStats {
+  Index pairs = 0;                ///< pairs inside the contact layer
+  double min_distance = kInf;     ///< over the pairs within the candidates' reach (kInf: none)
+};
+
+/// Contact between the triangles of every surface and within each (self-contact): vertex–triangle and edge–edge
+/// pairs whose distance is below the layer r = (t_a + t_b)/2 carry the energy w·ψ(d) (ContactLayer) with
+/// w = stiffness × the pair's area (the vertex's lumped area; for an edge a third of its triangles' areas, the two
+/// edges averaged). Pairs that share a point, and pairs of one surface closer than r in material space, are
+/// neighbours and never touch.
+///
+/// Intersection-freeness is the solvers' part: every trial point is limited by max_step() (continuous collision
+/// detection along the step), so that a point reached from an intersection-free one never has a pair at d = 0,
+/// where the energy is +∞.
+///
+/// The pairs near a point are cached: a rebuild at x_b finds every pair within r + 2δ (broad phase, then exact
+/// distances), which holds every pair inside the layer at any x with max_i |x_i − x_b,i| <= δ; farther points
+/// rebuild. The Hessian's stencils are the pairs within r + δ at the last change, kept until a pair inside the layer
+/// is missing from them, so the pattern (and the multigrid's Galerkin maps and colorings) changes only when the
+/// contact set does.
+class ClothContact final : public Term {
+ public:
+  ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params);
+  ~ClothContact() override;
+
+  std::string name() const override { return "cloth_contact"; }
+  double value(const VecX& x) const override;
+  void add_gradient(const VecX& x, VecX& g) const override;
+  void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const override;
+  void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override;
+  void bind(const linalg::BlockMatrix3& pattern) override;
+  bool update_stencils(const VecX& x) override;
+  double max_step(const VecX& x, const VecX& d, double alpha_max) const override;
+  bool limits_steps() const override { return true; }
+
+  const ClothContactParams& params() const { return m_params; }
+  const std::vector<ContactSurface>& surfaces() const { return m_surfaces; }
+  /// Every triangle of every surface, in the unknown's numbering (for the intersection checker).
+  const std::vector<Tri>& triangles() const { return m_topology.triangles; }
+  /// Surface and own index of triangle t of triangles().
+  std::pair<size_t, Index> triangle_owner(Index t) const;
+  ContactStats stats(const VecX& x) const;
+
+ private:
+  struct Pair {
+    std::array<Index, 4> v;  ///< points in the unknown's numbering: (p, t0, t1, t2) or (a0, a1, b0, b1)
+    bool edge_edge = false;
+    double weight = 0.0;     ///< w
+    double r = 0.0;          ///< the layer's thickness for this pair
+  };
+  /// The distance of pair p at x (exact, nearest features).
+  double distance(const Pair& p, const VecX& x) const;
+  /// w ψ(d) of pair p at x; gradient and Hessian (12) when non-null; 0 outside the layer.
+  double pair_energy(const Pair& p, const VecX& x, Eigen::Matrix<double, 12, 1>* g,
+                     Eigen::Matrix<double, 12, 12>* H, bool project_psd) const;
+  /// Makes the cache of near pairs valid at x.
+  void ensure_near(const VecX& x) const;
+  /// The near pairs (indices into m_near) inside their layer at x.
+  std::vector<Index> active(const VecX& x) const;
+  bool same_surface_neighbours(const Pair& p) const;
+
+  std::vector<ContactSurface> m_surfaces;
+  Index m_n;
+  ClothContactParams m_params;
+  collision::SurfaceTopology m_topology;
+  std::vector<Index> m_surface_of_point;  ///< per point of the unknown, its surface (-1: none)
+  std::vector<Index> m_triangle_start;    ///< first triangle of each surface in m_topology.triangles
+  VecX m_point_area, m_edge_area, m_point_r;
+  double m_max_r = 0.0;
+
+  mutable std::unique_ptr<collision::BroadPhase> m_broad;
+  mutable collision::Candidates m_candidates;
+  mutable std::vector<Pair> m_near;
+  mutable VecX m_near_base;  ///< x_b of the cache (empty: none)
+  double m_delta = 0.0;      ///< δ of the cache
+
+  std::vector<std::array<Index, 4>> m_stencils;  ///< sorted, the pattern's contact stencils
+  std::vector<std::array<Index, 16>> m_slots;    ///< per stencil, the pattern positions of its 4×4 blocks
+};
+
+}  // namespace mgcloth::physics

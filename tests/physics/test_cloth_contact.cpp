@@ -1,0 +1,187 @@
+// Cloth–cloth contact: the layer's energy, the term's derivatives, neighbour filtering and step limits.
+#include <mgcloth/collision/intersections.hpp>
+#include <mgcloth/core/error.hpp>
+#include <mgcloth/mesh/generators.hpp>
+#include <mgcloth/physics/cloth_contact.hpp>
+
+#include "term_checks.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace mgcloth::physics {
+namespace {
+
+// A square sheet of side `side` (material = rest shape), flat at height z.
+ContactSurface sheet(const std::string& name, double side, Index target, double z, Index offset, VecX& x,
+                     double thickness = 1e-3) {
+  mesh::RectangleSpec spec;
+  spec.width = spec.height = side;
+  spec.target_vertices = target;
+  const mesh::TriMesh m = mesh::make_rectangle(spec);
+  ContactSurface s;
+  s.name = name;
+  s.offset = offset;
+  s.tris = m.tris;
+  s.material = m.u;
+  s.area = VecX::Zero(m.num_vertices());
+  for (const Tri& t : m.tris) {
+    const double a = std::abs(m.material_area(&t - m.tris.data())) / 3.0;
+    for (Index v : t) s.area[v] += a;
+  }
+  s.thickness = thickness;
+  const Index n0 = static_cast<Index>(x.size() / 3);
+  x.conservativeResize(3 * (n0 + m.num_vertices()));
+  for (Index i = 0; i < m.num_vertices(); ++i) x.segment<3>(3 * (n0 + i)) = Vec3(m.u(0, i), m.u(1, i), z);
+  return s;
+}
+
+TEST(ContactLayer, DerivativesAndSmoothnessAtBothJunctions) {
+  const ContactLayer L(1e-3, 0.25, 2.0);
+  for (double d : {0.05e-3, 0.2e-3, 0.3e-3, 0.6e-3, 0.95e-3}) {
+    double d1 = 0, d2 = 0;
+    L.value(d, &d1, &d2);
+    const double h = 1e-9;
+    double a1 = 0, b1 = 0;
+    const double fd1 = (L.value(d + h) - L.value(d - h)) / (2 * h);
+    L.value(d + h, &a1);
+    L.value(d - h, &b1);
+    EXPECT_NEAR(d1, fd1, 1e-6 * std::abs(d1) + 1e-9) << d;
+    EXPECT_NEAR(d2, (a1 - b1) / (2 * h), 1e-5 * std::abs(d2) + 1e-6) << d;
+    EXPECT_LT(d1, 0.0);  // repulsive everywhere inside the layer
+    EXPECT_GT(d2, 0.0);  // convex in d
+  }
+  // C²: value, slope and curvature continuous where the barrier starts (τ) and where the layer ends (r).
+  for (double at : {L.tau, L.r}) {
+    double l1 = 0, l2 = 0, r1 = 0, r2 = 0;
+    const double lv = L.value(at * (1 - 1e-9), &l1, &l2), rv = L.value(at * (1 + 1e-9), &r1, &r2);
+    EXPECT_NEAR(lv, rv, 1e-9 * L.k * L.r * L.r + 1e-18);
+    EXPECT_NEAR(l1, r1, 1e-6 * L.k * L.r);
+    EXPECT_NEAR(l2, r2, 1e-5 * L.k);
+  }
+  // Bounded curvature in the outer layer [τ, r): the cubic's 2k at most; unbounded approaching zero.
+  for (double d = L.tau; d < L.r; d += 0.01e-3) {
+    double d2 = 0;
+    L.value(d, nullptr, &d2);
+    EXPECT_LE(d2, 2.0 * L.k * (1 + 1e-12));
+  }
+  // The barrier's energy grows without bound (logarithmically) and its force like 1/d as d → 0.
+  EXPECT_GT(L.value(1e-12), L.value(1e-9));
+  EXPECT_GT(L.value(1e-9), L.value(1e-6));
+  double f_near = 0, f_half = 0;
+  L.value(1e-9, &f_near);
+  L.value(L.tau / 2, &f_half);
+  EXPECT_GT(-f_near, 1e4 * -f_half);
+  EXPECT_EQ(L.value(0.0), kInf);
+  EXPECT_EQ(L.value(L.r), 0.0);
+}
+
+// Two small sheets a fraction of the layer apart, perturbed: every pair type shows up.
+TEST(ClothContact, GradientAndHessianMatchFiniteDifferences) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    VecX x;
+    std::vector<ContactSurface> s;
+    s.push_back(sheet("a", 0.02, 16, 0.0, 0, x));
+    s.push_back(sheet("b", 0.02, 16, 0.5e-3, static_cast<Index>(x.size() / 3), x));
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-0.15e-3, 0.15e-3);
+    for (Index i = 0; i < x.size(); ++i) x[i] += u(rng);
+    // Shift the top sheet sideways so that its vertices sit over triangle interiors and edges cross.
+    for (Index i = s[1].offset; i < x.size() / 3; ++i) x.segment<2>(3 * i) += Vec2(0.0031, 0.0017);
+    ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+    c.update_stencils(x);
+    EXPECT_GT(c.stats(x).pairs, 10);
+    EXPECT_GT(c.value(x), 0.0);
+    check_term(c, x, 1e-5);
+  }
+}
+
+TEST(ClothContact, FlatSheetAtRestHasNoContactAndNoEnergy) {
+  // Edges of 1 cm under a 1 mm and a 5 mm layer: only topological and material-space neighbours are that near.
+  for (double thickness : {1e-3, 5e-3}) {
+    VecX x;
+    std::vector<ContactSurface> s{sheet("a", 0.3, 900, 0.0, 0, x, thickness)};
+    ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+    EXPECT_EQ(c.value(x), 0.0);
+    EXPECT_EQ(c.stats(x).pairs, 0);
+  }
+}
+
+TEST(ClothContact, MaterialSpaceNeighboursAreNotContact) {
+  // Edges of 1 cm under a 3 cm layer: every pair of the flat sheet is a material-space neighbour.
+  VecX x;
+  std::vector<ContactSurface> s{sheet("a", 0.1, 121, 0.0, 0, x, 0.03)};
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+  EXPECT_EQ(c.stats(x).pairs, 0);
+  // The same sheet folded onto itself: the halves are far apart in material space and do touch.
+  VecX y = x;
+  for (Index i = 0; i < y.size() / 3; ++i)
+    if (y[3 * i] > 0.05) {
+      y[3 * i] = 0.1 - y[3 * i];
+      y[3 * i + 2] = 0.01;
+    }
+  EXPECT_GT(c.stats(y).pairs, 0);
+}
+
+TEST(ClothContact, MaxStepStopsASheetBeforeItPassesThroughAnother) {
+  VecX x;
+  std::vector<ContactSurface> s;
+  s.push_back(sheet("a", 0.05, 36, 0.0, 0, x));
+  const Index top = static_cast<Index>(x.size() / 3);
+  s.push_back(sheet("b", 0.05, 36, 0.01, top, x));
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+  for (Index i = top; i < x.size() / 3; ++i) x.segment<2>(3 * i) += Vec2(0.002, 0.003);
+  // The top sheet tilts down through the bottom one in one step (its far edge 2 cm down, so that the end state
+  // crosses it); its far edge meets the bottom sheet at α ≈ 0.52.
+  VecX d = VecX::Zero(x.size());
+  for (Index i = top; i < x.size() / 3; ++i) d[3 * i + 2] = -0.02 * (x[3 * i] - 0.002) / 0.05;
+  const double a = c.max_step(x, d, 1.0);
+  EXPECT_GT(a, 0.3);
+  EXPECT_LT(a, 0.52);
+  const VecX y = x + a * d;
+  EXPECT_EQ(collision::find_intersections(y, c.triangles()).size(), 0u);
+  EXPECT_GT(collision::find_intersections(x + d, c.triangles()).size(), 0u);
+  // Moving apart, or sideways in its own plane, is not limited.
+  VecX down = VecX::Zero(x.size());
+  for (Index i = top; i < x.size() / 3; ++i) down[3 * i + 2] = -0.02;
+  EXPECT_EQ(collision::find_intersections(x + down, c.triangles()).size(), 0u);  // passed through: only CCD sees it
+  EXPECT_LT(c.max_step(x, down, 1.0), 0.5);
+  EXPECT_EQ(c.max_step(x, -d, 1.0), 1.0);
+  VecX side = VecX::Zero(x.size());
+  for (Index i = top; i < x.size() / 3; ++i) side[3 * i] = 0.05;
+  EXPECT_EQ(c.max_step(x, side, 1.0), 1.0);
+}
+
+TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
+  VecX x;
+  std::vector<ContactSurface> s;
+  s.push_back(sheet("a", 0.03, 25, 0.0, 0, x));
+  const Index top = static_cast<Index>(x.size() / 3);
+  s.push_back(sheet("b", 0.03, 25, 2e-3, top, x));
+  ClothContact cached(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+  EXPECT_EQ(cached.value(x), 0.0);
+  // Small moves reuse the cache (within δ), larger ones rebuild it; both must see what a fresh term sees.
+  for (double dz : {-0.4e-3, -0.9e-3, -1.3e-3, -1.6e-3, -1.9e-3}) {
+    VecX y = x;
+    for (Index i = top; i < y.size() / 3; ++i) y[3 * i + 2] += dz;
+    ClothContact fresh(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+    EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << dz;
+  }
+}
+
+TEST(ClothContact, RejectsBadParameters) {
+  VecX x;
+  std::vector<ContactSurface> s{sheet("a", 0.03, 25, 0.0, 0, x)};
+  ClothContactParams p;
+  p.stiffness = -1.0;
+  EXPECT_THROW(ClothContact(s, static_cast<Index>(x.size() / 3), p), InputError);
+  p = {};
+  p.ccd_separation = 1.0;
+  EXPECT_THROW(ClothContact(s, static_cast<Index>(x.size() / 3), p), InputError);
+  s[0].thickness = std::nan("");
+  EXPECT_THROW(ClothContact(s, static_cast<Index>(x.size() / 3), ClothContactParams{}), InputError);
+}
+
+}  // namespace
+}  // namespace mgcloth::physics
