@@ -168,6 +168,17 @@ TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
     ClothContact fresh(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
     EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << dz;
   }
+  // After max_step along a long step the cache holds the whole segment: trial points on it see every pair.
+  VecX d = VecX::Zero(x.size());
+  for (Index i = top; i < x.size() / 3; ++i) d.segment<3>(3 * i) = Vec3(0.004, -0.003, -0.0035);
+  const double a = cached.max_step(x, d, 1.0);
+  EXPECT_GT(a, 0.3);
+  for (double f : {1.0, 0.8, 0.5, 0.25}) {
+    const VecX y = x + f * a * d;
+    ClothContact fresh(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+    EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << f;
+    if (f == 1.0) EXPECT_GT(fresh.value(y), 0.0);
+  }
 }
 
 TEST(ClothContact, RejectsBadParameters) {

@@ -48,20 +48,23 @@ double max_z(const sim::ClothBody& c) { return as_columns(c.x()).row(2).maxCoeff
 }  // namespace
 
 TEST(ClothContactScenes, StackedSheetsOnASphereStayInOrderAndNeverIntersect) {
-  sim::Simulator s(parse(shipped_json("layers_sphere", 250, 25)));
-  run_checked(s, 25);
+  // Three of the five sheets keep the test short; they fall 1.5 cm apart onto each other and the sphere.
+  Json j = shipped_json("layers_sphere", 200, 20);
+  j["cloths"] = Json::array({j["cloths"][0], j["cloths"][1], j["cloths"][2]});
+  sim::Simulator s(parse(j));
+  run_checked(s, 20);
   // The sheets lie on the sphere in the order they fell, each on the one below.
   // (The highest point of each: the corners of the upper, rotated sheets hang lower than the lower sheets' own.)
   const auto cloths = s.cloths();
   for (size_t k = 1; k < cloths.size(); ++k) EXPECT_GT(max_z(*cloths[k]), max_z(*cloths[k - 1])) << k;
   // The top of the stack rests on the sphere at about the layers' thicknesses: no sheet went through another.
   const double top = as_columns(cloths.back()->x()).row(2).maxCoeff();
-  EXPECT_GT(top, 0.25 + 4 * 0.002 * 0.5);
+  EXPECT_GT(top, 0.25 + 2 * 0.002 * 0.5);
   EXPECT_LT(top, 0.25 + 0.05);
 }
 
 TEST(ClothContactScenes, AStripFallingOnTheFloorFoldsWithoutPassingThroughItself) {
-  sim::Simulator s(parse(shipped_json("fold_floor", 600, 30)));
+  sim::Simulator s(parse(shipped_json("fold_floor", 500, 30)));
   run_checked(s, 30);
   // It has come down and piled up: much of it lies in layers near the floor, touching itself.
   const auto z = as_columns(s.cloths()[0]->x()).row(2);
@@ -71,12 +74,12 @@ TEST(ClothContactScenes, AStripFallingOnTheFloorFoldsWithoutPassingThroughItself
 // Every solver family that supports contact keeps it intersection-free (two sheets, one falling on the other).
 TEST(ClothContactScenes, EverySolverThatSupportsContactKeepsItIntersectionFree) {
   for (const char* solver : {"fmg", "newton-direct", "newton-mg", "newton-ls"}) {
-    Json j = shipped_json("layers_sphere", 200, 12);
+    Json j = shipped_json("layers_sphere", 150, 10);
     j["cloths"] = Json::array({j["cloths"][0], j["cloths"][1]});
     j["solver"]["name"] = solver;
     sim::Simulator s(parse(j));
     SCOPED_TRACE(solver);
-    run_checked(s, 12);
+    run_checked(s, 10);
     EXPECT_GT(max_z(*s.cloths()[1]), max_z(*s.cloths()[0]));
   }
 }

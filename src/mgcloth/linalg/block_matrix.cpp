@@ -7,23 +7,35 @@
 namespace mgcloth::linalg {
 
 BlockMatrix3::BlockMatrix3(Index n, std::vector<std::pair<Index, Index>> pairs) : m_n(n) {
-  const size_t given = pairs.size();
-  pairs.reserve(2 * given + n);
-  for (size_t k = 0; k < given; ++k) {
-    auto [r, c] = pairs[k];
+  // Rows bucketed by counting, then each short row sorted: linear in the pairs where one global sort of them was
+  // most of a pattern rebuild (contact changes the pattern during a solve).
+  m_offsets.assign(n + 2, 0);
+  for (const auto& [r, c] : pairs) {
     if (r < 0 || c < 0 || r >= n || c >= n) throw_error("BlockMatrix3: block ({}, {}) outside {} rows", r, c, n);
-    if (r != c) pairs.emplace_back(c, r);
+    ++m_offsets[r + 2];
+    if (r != c) ++m_offsets[c + 2];
   }
-  for (Index i = 0; i < n; ++i) pairs.emplace_back(i, i);
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
-  m_offsets.assign(n + 1, 0);
-  m_cols.resize(pairs.size());
-  for (size_t k = 0; k < pairs.size(); ++k) {
-    ++m_offsets[pairs[k].first + 1];
-    m_cols[k] = pairs[k].second;
+  for (Index i = 0; i < n; ++i) ++m_offsets[i + 2];  // the diagonal
+  for (Index i = 0; i < n; ++i) m_offsets[i + 2] += m_offsets[i + 1];
+  std::vector<Index> cols(static_cast<size_t>(m_offsets[n + 1]));
+  const auto put = [&](Index r, Index c) { cols[static_cast<size_t>(m_offsets[r + 1]++)] = c; };
+  for (const auto& [r, c] : pairs) {
+    put(r, c);
+    if (r != c) put(c, r);
   }
-  for (Index i = 0; i < n; ++i) m_offsets[i + 1] += m_offsets[i];
+  for (Index i = 0; i < n; ++i) put(i, i);
+  // m_offsets[i + 1] is now the end of row i (and m_offsets[i] its start).
+  std::vector<std::pair<Index, Index>>().swap(pairs);
+  m_cols.clear();
+  m_cols.reserve(cols.size());
+  std::vector<Index> offsets(static_cast<size_t>(n) + 1, 0);
+  for (Index i = 0; i < n; ++i) {
+    const auto begin = cols.begin() + m_offsets[i], end = cols.begin() + m_offsets[i + 1];
+    std::sort(begin, end);
+    m_cols.insert(m_cols.end(), begin, std::unique(begin, end));
+    offsets[static_cast<size_t>(i) + 1] = static_cast<Index>(m_cols.size());
+  }
+  m_offsets = std::move(offsets);
   m_diag.resize(n);
   for (Index i = 0; i < n; ++i) m_diag[i] = find(i, i);
   m_values.assign(m_cols.size(), Mat3::Zero());

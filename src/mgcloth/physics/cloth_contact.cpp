@@ -65,6 +65,7 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
     if (!(c.thickness > 0.0) || !std::isfinite(c.thickness))
       throw_input_error("cloth \"{}\": contact thickness must be positive and finite (got {})", c.name, c.thickness);
     m_max_r = std::max(m_max_r, c.thickness);
+    m_min_r = std::min(m_min_r, c.thickness);
     m_triangle_start.push_back(static_cast<Index>(tris.size()));
     const Index np = static_cast<Index>(c.area.size());
     if (c.offset < 0 || c.offset + np > m_n || c.material.cols() != np)
@@ -164,15 +165,36 @@ double ClothContact::pair_energy(const Pair& p, const VecX& x, Vec12* g, Mat12* 
   return psi;
 }
 
+bool ClothContact::near_valid(const VecX& x) const {
+  if (m_near_base.size() != x.size()) return false;
+  // Every point within δ of the segment it was given when the cache was built.
+  const auto X = as_columns(x);
+  const auto B = as_columns(static_cast<const VecX&>(m_near_base));
+  const auto S = as_columns(static_cast<const VecX&>(m_near_step));
+  for (Index i = 0; i < m_n; ++i) {
+    const Vec3 dx = X.col(i) - B.col(i), s = S.col(i);
+    const double ss = s.squaredNorm();
+    const double t = ss > 0.0 ? std::clamp(dx.dot(s) / ss, 0.0, 1.0) : 0.0;
+    if ((dx - t * s).squaredNorm() > m_delta * m_delta) return false;
+  }
+  return true;
+}
+
 void ClothContact::ensure_near(const VecX& x) const {
   if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
-  if (m_near_base.size() == x.size()) {
-    const double moved = (x - m_near_base).reshaped(3, m_n).colwise().squaredNorm().maxCoeff();
-    if (moved <= m_delta * m_delta) return;
-  }
-  logger().debug("cloth contact: near pairs rebuilt");
-  const double reach = m_max_r + 2.0 * m_delta;
-  m_broad->find(x, 0.5 * reach, m_candidates);
+  if (!near_valid(x)) rebuild_near(x, nullptr);
+}
+
+void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
+  logger().debug("cloth contact: near pairs rebuilt{}", step ? " along a step" : "");
+  // A point y within δ of its segment [x_i, x_i + s_i] lies in the segment's box grown by δ, and a pair within r at
+  // y has boxes within r of each other there: boxes grown by r/2 + δ catch it.
+  const double grow = 0.5 * m_max_r + m_delta;
+  if (step)
+    m_broad->find_swept(x, *step, grow, m_candidates);
+  else
+    m_broad->find(x, grow, m_candidates);
+  VecX motion = step ? VecX(step->reshaped(3, m_n).colwise().norm().transpose()) : VecX::Zero(m_n);
   const auto& vt = m_candidates.vertex_triangle;
   const auto& ee = m_candidates.edge_edge;
   const Index nvt = static_cast<Index>(vt.size()), nee = static_cast<Index>(ee.size());
@@ -196,14 +218,21 @@ void ClothContact::ensure_near(const VecX& x) const {
       p.weight = m_params.stiffness * 0.5 * (m_edge_area[ea] + m_edge_area[eb]);
       p.r = 0.5 * (m_point_r[A[0]] + m_point_r[B[0]]);
     }
-    if (distance(p, x) >= p.r + 2.0 * m_delta) return;
-    if (same_surface_neighbours(p)) return;
-    keep[static_cast<size_t>(k)] = 1;
+    // Each side moves at most its largest segment plus δ, so its distance drops by at most that.
+    const int split = p.edge_edge ? 2 : 1;
+    double ma = 0.0, mb = 0.0;
+    for (int i = 0; i < 4; ++i) (i < split ? ma : mb) = std::max(i < split ? ma : mb, motion[p.v[i]]);
+    if (distance(p, x) >= p.r + 2.0 * m_delta + ma + mb) return;
+    keep[static_cast<size_t>(k)] = same_surface_neighbours(p) ? 2 : 1;
   });
   m_near.clear();
-  for (size_t k = 0; k < all.size(); ++k)
-    if (keep[k]) m_near.push_back(all[k]);
+  m_near_neighbours.clear();
+  for (size_t k = 0; k < all.size(); ++k) {
+    if (keep[k] == 1) m_near.push_back(all[k]);
+    if (keep[k] == 2) m_near_neighbours.push_back(all[k]);
+  }
   m_near_base = x;
+  m_near_step = step ? *step : VecX::Zero(x.size());
 }
 
 std::vector<Index> ClothContact::active(const VecX& x) const {
@@ -287,33 +316,28 @@ bool ClothContact::update_stencils(const VecX& x) {
 
 double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) const {
   if (!(alpha_max > 0.0)) return 0.0;
+  if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
   const VecX step = alpha_max * d;
-  collision::Candidates swept;
-  // Boxes a hair larger than the motion's own: a pair that collides has overlapping swept boxes whatever the
-  // rounding of the box corners.
-  m_broad->find_swept(x, step, 1e-6 * m_max_r, swept);
-  const auto& vt = swept.vertex_triangle;
-  const auto& ee = swept.edge_edge;
-  const Index nvt = static_cast<Index>(vt.size()), nee = static_cast<Index>(ee.size());
   const double s = m_params.ccd_separation;
-  std::vector<double> t(static_cast<size_t>(nvt + nee), 1.0);
-  parallel_for(nvt + nee, [&](Index k) {
-    if (k < nvt) {
-      const Index v = m_topology.vertices[vt[k][0]];
-      const Tri& f = m_topology.triangles[vt[k][1]];
-      t[static_cast<size_t>(k)] =
-          collision::point_triangle_ccd(at(x, v), at(x, f[0]), at(x, f[1]), at(x, f[2]), at(step, v), at(step, f[0]),
-                                        at(step, f[1]), at(step, f[2]), s, 1.0);
-    } else {
-      const auto& A = m_topology.edges[ee[k - nvt][0]];
-      const auto& B = m_topology.edges[ee[k - nvt][1]];
-      t[static_cast<size_t>(k)] =
-          collision::edge_edge_ccd(at(x, A[0]), at(x, A[1]), at(x, B[0]), at(x, B[1]), at(step, A[0]),
-                                   at(step, A[1]), at(step, B[0]), at(step, B[1]), s, 1.0);
-    }
+  // With the cache valid at x, a pair outside it is at least its layer r apart. While no point moves more than
+  // (1 − s)·r_min/2, no such pair closes to s times its distance: only the cached pairs need collision detection.
+  // Otherwise the cache is rebuilt along the step: its pairs are then every pair that can come within r anywhere on
+  // it (so the line search's trial points on it need no rebuild), a superset of those that can collide.
+  const double small = 0.5 * (1.0 - s) * m_min_r;
+  if (!near_valid(x) || step.reshaped(3, m_n).colwise().squaredNorm().maxCoeff() > small * small)
+    rebuild_near(x, &step);
+  // Material-space neighbours carry no energy but must not pass through each other either.
+  const size_t nn = m_near.size();
+  std::vector<double> t(nn + m_near_neighbours.size(), 1.0);
+  parallel_for(static_cast<Index>(t.size()), [&](Index k) {
+    const size_t j = static_cast<size_t>(k);
+    const Pair& p = j < nn ? m_near[j] : m_near_neighbours[j - nn];
+    const auto a = [&](int i) { return at(x, p.v[i]); };
+    const auto da = [&](int i) { return at(step, p.v[i]); };
+    t[j] = p.edge_edge ? collision::edge_edge_ccd(a(0), a(1), a(2), a(3), da(0), da(1), da(2), da(3), s, 1.0)
+                       : collision::point_triangle_ccd(a(0), a(1), a(2), a(3), da(0), da(1), da(2), da(3), s, 1.0);
   });
-  const double tmin = t.empty() ? 1.0 : *std::min_element(t.begin(), t.end());
-  return alpha_max * tmin;
+  return alpha_max * (t.empty() ? 1.0 : *std::min_element(t.begin(), t.end()));
 }
 
 ContactStats ClothContact::stats(const VecX& x) const {
