@@ -94,6 +94,14 @@ size_t cgal_candidates(const SurfaceTopology& s, const VecX& x, std::vector<std:
   return vt.size() + ee.size();
 }
 
+/// The 1 m unstructured square every table of this program runs on.
+mesh::TriMesh unstructured_sheet(int vertices) {
+  mesh::RectangleSpec spec;
+  spec.target_vertices = vertices;
+  spec.unstructured = true;
+  return mesh::make_rectangle(spec);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -115,10 +123,7 @@ int main(int argc, char** argv) {
               "CGAL box_intersection_d (1 thread) | brute force (1 thread) |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (int n : parse_list(sizes)) {
-    mesh::RectangleSpec spec;
-    spec.target_vertices = n;
-    spec.unstructured = true;
-    const mesh::TriMesh m = mesh::make_rectangle(spec);
+    const mesh::TriMesh m = unstructured_sheet(n);
     const SurfaceTopology s = make_surface_topology(m.tris);
     std::mt19937 rng(1);
     const VecX x0 = folded_sheet(m, rng);
@@ -166,10 +171,7 @@ int main(int argc, char** argv) {
   std::printf("\n| vertices | threads | sequence | rebuild growth | calls | rebuilds | time of all calls | last call |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (int n : parse_list(sweep_sizes)) {
-    mesh::RectangleSpec spec;
-    spec.target_vertices = n;
-    spec.unstructured = true;
-    const mesh::TriMesh m = mesh::make_rectangle(spec);
+    const mesh::TriMesh m = unstructured_sheet(n);
     const SurfaceTopology s = make_surface_topology(m.tris);
     std::vector<VecX> fold;
     std::mt19937 rng(2);

@@ -103,12 +103,14 @@ TEST(AdditiveCCD, RandomMotionsStayApart) {
   EXPECT_GT(early, 50);  // the random motions include many that come close
 }
 
-TEST(AdditiveCCD, PointThroughTriangleInterior) {
-  std::mt19937_64 rng(12);
-  std::uniform_real_distribution<double> u01(0.05, 0.9);
-  for (int trial = 0; trial < 100; ++trial) {
-    const double a = u01(rng), b = u01(rng) * (1 - a), toi = u01(rng);
-    const Motion m = point_through_triangle(rng, toi, {a, b, 1 - a - b});
+// Motions that truly collide at toi: CCD stops strictly before, and keeps its contract, for two separations.
+template <class MakeMotion>
+void expect_stops_before_impact(unsigned seed, int trials, MakeMotion&& make) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u01(0.05, 0.95);
+  for (int trial = 0; trial < trials; ++trial) {
+    const double toi = u01(rng);
+    const Motion m = make(rng, toi);
     if (distance_at(m, 0) < 1e-3) continue;
     ASSERT_LT(distance_at(m, toi), 1e-12);
     for (const double s : {0.1, 0.5}) {
@@ -119,20 +121,20 @@ TEST(AdditiveCCD, PointThroughTriangleInterior) {
   }
 }
 
+TEST(AdditiveCCD, PointThroughTriangleInterior) {
+  expect_stops_before_impact(12, 100, [](std::mt19937_64& rng, double toi) {
+    std::uniform_real_distribution<double> u01(0.05, 0.9);
+    const double a = u01(rng), b = u01(rng) * (1 - a);
+    return point_through_triangle(rng, toi, {a, b, 1 - a - b});
+  });
+}
+
 TEST(AdditiveCCD, CrossingEdges) {
-  std::mt19937_64 rng(13);
-  std::uniform_real_distribution<double> u01(0.05, 0.95);
-  for (int trial = 0; trial < 100; ++trial) {
-    const double toi = u01(rng);
-    const Motion m = edges_through(rng, toi, u01(rng), u01(rng));
-    if (distance_at(m, 0) < 1e-3) continue;
-    ASSERT_LT(distance_at(m, toi), 1e-12);
-    for (const double s : {0.1, 0.5}) {
-      const double t = ccd(m, s, 1.0);
-      EXPECT_LT(t, toi) << trial;
-      check_contract(m, s, 1.0, t, "trial " + std::to_string(trial));
-    }
-  }
+  expect_stops_before_impact(13, 100, [](std::mt19937_64& rng, double toi) {
+    std::uniform_real_distribution<double> u01(0.05, 0.95);
+    const double sa = u01(rng), sb = u01(rng);
+    return edges_through(rng, toi, sa, sb);
+  });
 }
 
 // Contact exactly at a feature of lower dimension: a vertex onto an edge, an endpoint onto the other segment's

@@ -177,7 +177,9 @@ TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
     const VecX y = x + f * a * d;
     ClothContact fresh(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
     EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << f;
-    if (f == 1.0) EXPECT_GT(fresh.value(y), 0.0);
+    if (f == 1.0) {
+      EXPECT_GT(fresh.value(y), 0.0);
+    }
   }
 }
 

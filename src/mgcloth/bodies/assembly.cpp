@@ -89,6 +89,7 @@ VecX Assembly::prepare_step(const StepTime& step) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
     const VecX d = out - from;
     out = from + objective().max_step(from, d, 1.0) * d;
+    m_contact->start_step(out);
   }
   return out;
 }

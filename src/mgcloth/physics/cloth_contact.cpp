@@ -295,6 +295,24 @@ void ClothContact::bind(const linalg::BlockMatrix3& pattern) {
       }
 }
 
+std::vector<std::array<Index, 4>> ClothContact::stencils_at(const VecX& x) const {
+  ensure_near(x);
+  // Pairs a little outside the layer are kept in the pattern too, so that a pair that enters next does not change it.
+  std::vector<std::array<Index, 4>> out;
+  for (const Pair& p : m_near)
+    if (distance(p, x) < p.r + m_delta) out.push_back(p.v);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+void ClothContact::start_step(const VecX& x) {
+  auto fresh = stencils_at(x);
+  if (fresh == m_stencils) return;
+  m_stencils = std::move(fresh);
+  m_stencils_pending = true;
+}
+
 bool ClothContact::update_stencils(const VecX& x) {
   const std::vector<Index> act = active(x);
   bool missing = false;
@@ -303,13 +321,10 @@ bool ClothContact::update_stencils(const VecX& x) {
       missing = true;
       break;
     }
-  if (!missing) return false;
-  // Pairs a little outside the layer are kept in the pattern too, so that a pair that enters next does not change it.
-  m_stencils.clear();
-  for (const Pair& p : m_near)
-    if (distance(p, x) < p.r + m_delta) m_stencils.push_back(p.v);
-  std::sort(m_stencils.begin(), m_stencils.end());
-  m_stencils.erase(std::unique(m_stencils.begin(), m_stencils.end()), m_stencils.end());
+  const bool changed = missing || m_stencils_pending;
+  m_stencils_pending = false;
+  if (!changed) return false;
+  if (missing) m_stencils = stencils_at(x);
   logger().debug("cloth contact: new pattern, {} stencils", m_stencils.size());
   return true;
 }

@@ -95,6 +95,10 @@ class ClothContact final : public Term {
   /// Surface and own index of triangle t of triangles().
   std::pair<size_t, Index> triangle_owner(Index t) const;
   ContactStats stats(const VecX& x) const;
+  /// The stencils from x alone (the pairs within r + δ), at the start of every step: within a step the pattern
+  /// follows the iterates with hysteresis, but every step starts from a pattern that depends on its start point
+  /// only, so a run resumed from a checkpoint assembles on the same patterns as the uninterrupted one.
+  void start_step(const VecX& x);
 
  private:
   struct Pair {
@@ -117,6 +121,7 @@ class ClothContact final : public Term {
   /// The near pairs (indices into m_near) inside their layer at x.
   std::vector<Index> active(const VecX& x) const;
   bool same_surface_neighbours(const Pair& p) const;
+  std::vector<std::array<Index, 4>> stencils_at(const VecX& x) const;
 
   std::vector<ContactSurface> m_surfaces;
   Index m_n;
@@ -136,6 +141,7 @@ class ClothContact final : public Term {
   double m_delta = 0.0;      ///< δ of the cache
 
   std::vector<std::array<Index, 4>> m_stencils;  ///< sorted, the pattern's contact stencils
+  bool m_stencils_pending = false;               ///< start_step changed them: the next update_stencils says so
   std::vector<std::array<Index, 16>> m_slots;    ///< per stencil, the pattern positions of its 4×4 blocks
 };
 
