@@ -1,4 +1,5 @@
 // End-to-end scenes with physical assertions.
+#include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/sim/simulator.hpp>
@@ -145,6 +146,35 @@ TEST(Simulation, KeyframedPinsCarryTheCloth) {
     EXPECT_NEAR(end[p].z() - start[p].z(), 0.2, 1e-12);
     EXPECT_LT((body.x().segment<3>(3 * body.pinned_vertices()[p]) - end[p]).norm(), 2e-3);
   }
+}
+
+TEST(Simulation, RotatingPinsTurnAboutTheirAxisAndHoldAfterTheirDuration) {
+  // The pinned top edge (y = 1) turns about the x axis through (0, 0, 0) at π/2 rad/s for 0.5 s, while the centre
+  // moves 0.1 m/s along x: a quarter turn in 1 s would take (x, 1, 0) to (x, 0, 1); half of it is 45°.
+  Json j = Json::parse(R"({ "frames": 30, "gravity": [0, 0, 0], "cloths": [ { "mesh": { "generator": "rectangle", "vertices": 200 },
+    "pins": [ { "region": { "min": [0, 0.999], "max": [1, 1] }, "motion": { "type": "rotation", "axis": [2, 0, 0],
+      "center": [0, 0, 0], "angular_velocity": 1.5707963267948966, "velocity": [0.1, 0, 0], "duration": 0.5 } } ] } ] })");
+  sim::Simulator s(sim::parse_scene(j, "pins.json", "."));
+  const auto& body = *s.cloths()[0];
+  const auto rest = body.pin_targets(0.0);
+  ASSERT_GT(rest.size(), 5u);
+  for (double t : {0.25, 0.5, 1.0}) {
+    const double angle = 1.5707963267948966 * std::min(t, 0.5), shift = 0.1 * std::min(t, 0.5);
+    const auto at = body.pin_targets(t);
+    for (size_t p = 0; p < rest.size(); ++p) {
+      const Vec3 expected(rest[p].x() + shift, std::cos(angle) * rest[p].y() - std::sin(angle) * rest[p].z(),
+                          std::sin(angle) * rest[p].y() + std::cos(angle) * rest[p].z());
+      EXPECT_LT((at[p] - expected).norm(), 1e-12) << "t " << t << " pin " << p;
+    }
+  }
+  // The cloth follows its pins.
+  for (int f = 0; f < 30; ++f) s.advance_frame();
+  const auto end = body.pin_targets(s.time());
+  for (size_t p = 0; p < end.size(); ++p)
+    EXPECT_LT((body.x().segment<3>(3 * body.pinned_vertices()[p]) - end[p]).norm(), 2e-3) << p;
+  Json bad = j;
+  bad["cloths"][0]["pins"][0]["motion"]["axis"] = Json::array({0, 0, 0});
+  EXPECT_THROW(sim::parse_scene(bad, "pins.json", "."), InputError);
 }
 
 TEST(Simulation, TableclothRestsOnTheTableAndHangsOverItsEdges) {
