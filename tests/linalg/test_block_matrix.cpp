@@ -71,3 +71,15 @@ TEST(CholmodSolver, ReportsIndefiniteMatrix) {
   CholmodSolver chol;
   EXPECT_FALSE(chol.factorize(A));
 }
+
+TEST(BlockMatrix3, FromRowsKeepsAValidPatternAndRefusesBrokenOnes) {
+  const BlockMatrix3 A(4, {{0, 3}, {2, 1}});
+  const BlockMatrix3 B = BlockMatrix3::from_rows(4, A.row_offsets(), A.col_indices());
+  EXPECT_TRUE(B.same_pattern(A));
+  for (Index r = 0; r < 4; ++r) EXPECT_EQ(B.diagonal(r), A.diagonal(r));
+  EXPECT_THROW(BlockMatrix3::from_rows(2, {0, 1, 2}, {0, 0}), Error);          // row 1 lacks its diagonal
+  EXPECT_THROW(BlockMatrix3::from_rows(2, {0, 2, 3}, {1, 0, 1}), Error);       // row 0 unsorted
+  EXPECT_THROW(BlockMatrix3::from_rows(2, {0, 2, 3}, {0, 0, 1}), Error);       // row 0 repeats a column
+  EXPECT_THROW(BlockMatrix3::from_rows(2, {0, 1, 2}, {0, 2}), Error);          // column outside
+  EXPECT_THROW(BlockMatrix3::from_rows(2, {0, 1}, {0}), Error);                // offsets for one row
+}

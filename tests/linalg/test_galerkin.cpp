@@ -59,6 +59,15 @@ TEST(Galerkin, MatchesScalarTripleProduct) {
   rap.compute(A, Ac);
   const Eigen::MatrixXd ours(Ac.to_sparse());
   EXPECT_LE((ours - reference).norm(), 1e-12 * reference.norm());
+  // The pattern is exactly the structural product (plus the diagonal): every coarse pair that a fine block reaches.
+  std::vector<std::pair<Index, Index>> reached;
+  for (Index i = 0; i < nf; ++i)
+    for (Index k = A.row_offsets()[i]; k < A.row_offsets()[i + 1]; ++k) {
+      const Index j = A.col_indices()[k];
+      for (Index a = po[i]; a < po[i + 1]; ++a)
+        for (Index b = po[j]; b < po[j + 1]; ++b) reached.emplace_back(pi[a], pi[b]);
+    }
+  EXPECT_TRUE(rap.coarse_pattern().same_pattern(BlockMatrix3(nc, reached)));
   // New values, same pattern: only the numeric pass runs, and it stays exact.
   for (auto& b : A.blocks()) b *= -2.0;
   rap.compute(A, Ac);

@@ -41,6 +41,28 @@ BlockMatrix3::BlockMatrix3(Index n, std::vector<std::pair<Index, Index>> pairs) 
   m_values.assign(m_cols.size(), Mat3::Zero());
 }
 
+BlockMatrix3 BlockMatrix3::from_rows(Index n, std::vector<Index> offsets, std::vector<Index> cols) {
+  if (n < 0 || static_cast<Index>(offsets.size()) != n + 1 || offsets[0] != 0 ||
+      offsets[n] != static_cast<Index>(cols.size()))
+    throw_error("BlockMatrix3: {} row offsets for {} rows and {} blocks", offsets.size(), n, cols.size());
+  BlockMatrix3 out;
+  out.m_n = n;
+  out.m_offsets = std::move(offsets);
+  out.m_cols = std::move(cols);
+  out.m_diag.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    const Index b = out.m_offsets[i], e = out.m_offsets[i + 1];
+    if (e < b) throw_error("BlockMatrix3: row {} has negative length", i);
+    for (Index k = b; k < e; ++k)
+      if (out.m_cols[k] < 0 || out.m_cols[k] >= n || (k > b && out.m_cols[k] <= out.m_cols[k - 1]))
+        throw_error("BlockMatrix3: row {} is not sorted, unique and within {} columns", i, n);
+    out.m_diag[i] = out.find(i, i);
+    if (out.m_diag[i] < 0) throw_error("BlockMatrix3: row {} lacks its diagonal block", i);
+  }
+  out.m_values.assign(out.m_cols.size(), Mat3::Zero());
+  return out;
+}
+
 Index BlockMatrix3::find(Index r, Index c) const {
   const auto begin = m_cols.begin() + m_offsets[r];
   const auto end = m_cols.begin() + m_offsets[r + 1];

@@ -14,6 +14,9 @@ class BlockMatrix3 {
   BlockMatrix3() = default;
   /// Pattern over n block rows from (row, col) pairs; symmetric partners and the diagonal are added.
   BlockMatrix3(Index n, std::vector<std::pair<Index, Index>> pairs);
+  /// Pattern from block-CSR rows that are already sorted, free of duplicates, hold their diagonal and are
+  /// symmetric (the caller's promise; the first three are checked).
+  static BlockMatrix3 from_rows(Index n, std::vector<Index> offsets, std::vector<Index> cols);
 
   Index rows() const { return m_n; }
   Index num_blocks() const { return static_cast<Index>(m_cols.size()); }

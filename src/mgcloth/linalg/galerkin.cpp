@@ -11,36 +11,69 @@ GalerkinProduct::GalerkinProduct(const BlockMatrix3& A, Index nc, const std::vec
     : m_fine_blocks(A.num_blocks()) {
   if (static_cast<Index>(po.size()) != A.rows() + 1)
     throw Error(fmt::format("Galerkin: interpolation has {} rows, the matrix {}", po.size() - 1, A.rows()));
-  struct Entry {
-    Index I, J, k;
-    double w;
-  };
-  std::vector<Entry> entries;
-  std::vector<std::pair<Index, Index>> pairs;
+  // Row by row with a marker per coarse column, as in a sparse product's symbolic phase: no list of all the terms, no
+  // sort of them and no search per term. Contact rebuilds this whenever its stencils change, inside a solve.
+  // Pᵀ: per coarse vertex, the fine vertices interpolating from it, ascending (so each block sums in the order of
+  // its fine rows, then fine blocks, then interpolation entries).
+  std::vector<Index> t_off(static_cast<size_t>(nc) + 1, 0);
+  for (Index i = 0; i < A.rows(); ++i)
+    for (Index a = po[i]; a < po[i + 1]; ++a) {
+      if (pi[a] < 0 || pi[a] >= nc)
+        throw Error(fmt::format("Galerkin: fine vertex {} interpolates from coarse vertex {} of {}", i, pi[a], nc));
+      if (pw[a] != 0.0) ++t_off[pi[a] + 1];
+    }
+  for (Index c = 0; c < nc; ++c) t_off[c + 1] += t_off[c];
+  std::vector<Index> t_fine(static_cast<size_t>(t_off[nc])), cursor(t_off.begin(), t_off.end() - 1);
+  std::vector<double> t_weight(t_fine.size());
+  for (Index i = 0; i < A.rows(); ++i)
+    for (Index a = po[i]; a < po[i + 1]; ++a)
+      if (pw[a] != 0.0) {
+        t_fine[cursor[pi[a]]] = i;
+        t_weight[cursor[pi[a]]++] = pw[a];
+      }
   const auto& off = A.row_offsets();
   const auto& cols = A.col_indices();
-  for (Index i = 0; i < A.rows(); ++i)
-    for (Index k = off[i]; k < off[i + 1]; ++k) {
-      const Index j = cols[k];
-      for (Index a = po[i]; a < po[i + 1]; ++a)
-        for (Index b = po[j]; b < po[j + 1]; ++b) {
-          if (pw[a] == 0.0 || pw[b] == 0.0) continue;
-          entries.push_back({pi[a], pi[b], k, pw[a] * pw[b]});
-          if (pi[a] <= pi[b]) pairs.emplace_back(pi[a], pi[b]);
-        }
+  // Calls f(J, fine block, weight) for every term of coarse row I.
+  const auto for_each_term = [&](Index I, const auto& f) {
+    for (Index t = t_off[I]; t < t_off[I + 1]; ++t) {
+      const Index i = t_fine[t];
+      const double wa = t_weight[t];
+      for (Index k = off[i]; k < off[i + 1]; ++k) {
+        const Index j = cols[k];
+        for (Index b = po[j]; b < po[j + 1]; ++b)
+          if (pw[b] != 0.0) f(pi[b], k, wa * pw[b]);
+      }
     }
-  m_coarse = BlockMatrix3(nc, std::move(pairs));
-  // Group the terms by coarse block; stable order keeps the summation order fixed.
-  std::vector<Index> slot(entries.size());
-  std::vector<Index> count(m_coarse.num_blocks() + 1, 0);
-  for (size_t e = 0; e < entries.size(); ++e) {
-    slot[e] = m_coarse.find(entries[e].I, entries[e].J);
-    ++count[slot[e] + 1];
+  };
+  std::vector<Index> mark(static_cast<size_t>(nc), -1);
+  std::vector<Index> c_off(static_cast<size_t>(nc) + 1, 0), c_cols;
+  std::vector<Index> row;
+  for (Index I = 0; I < nc; ++I) {
+    row.assign(1, I);
+    mark[I] = 0;
+    for_each_term(I, [&](Index J, Index, double) {
+      if (mark[J] < 0) {
+        mark[J] = 0;
+        row.push_back(J);
+      }
+    });
+    std::sort(row.begin(), row.end());
+    for (Index J : row) mark[J] = -1;
+    c_cols.insert(c_cols.end(), row.begin(), row.end());
+    c_off[I + 1] = static_cast<Index>(c_cols.size());
   }
-  for (Index c = 0; c < m_coarse.num_blocks(); ++c) count[c + 1] += count[c];
-  m_offsets = count;
-  m_terms.resize(entries.size());
-  for (size_t e = 0; e < entries.size(); ++e) m_terms[count[slot[e]]++] = {entries[e].k, entries[e].w};
+  m_offsets.assign(c_cols.size() + 1, 0);
+  const auto with_slots = [&](Index I, const auto& f) {
+    for (Index s = c_off[I]; s < c_off[I + 1]; ++s) mark[c_cols[s]] = s;
+    for_each_term(I, [&](Index J, Index k, double w) { f(mark[J], k, w); });
+    for (Index s = c_off[I]; s < c_off[I + 1]; ++s) mark[c_cols[s]] = -1;
+  };
+  for (Index I = 0; I < nc; ++I) with_slots(I, [&](Index s, Index, double) { ++m_offsets[s + 1]; });
+  for (size_t s = 0; s + 1 < m_offsets.size(); ++s) m_offsets[s + 1] += m_offsets[s];
+  m_terms.resize(static_cast<size_t>(m_offsets.back()));
+  std::vector<Index> fill(m_offsets.begin(), m_offsets.end() - 1);
+  for (Index I = 0; I < nc; ++I) with_slots(I, [&](Index s, Index k, double w) { m_terms[fill[s]++] = {k, w}; });
+  m_coarse = BlockMatrix3::from_rows(nc, std::move(c_off), std::move(c_cols));
 }
 
 void GalerkinProduct::compute(const BlockMatrix3& A, BlockMatrix3& coarse) const {
