@@ -96,6 +96,18 @@ void gather_pairs(Index n, std::vector<std::vector<Pair>>& chunks, std::vector<P
       count, [&](Index c) { std::copy(chunks[c].begin(), chunks[c].end(), out.begin() + offset[c]); }, 2);
 }
 
+/// The pairs ascending: bucketed by their first index (counting), each bucket sorted.
+void sort_pairs(Index n, const std::vector<Pair>& in, std::vector<Pair>& out) {
+  std::vector<Index> start(static_cast<size_t>(n) + 1, 0);
+  for (const Pair& p : in) ++start[p[0] + 1];
+  for (Index i = 0; i < n; ++i) start[i + 1] += start[i];
+  out.resize(in.size());
+  std::vector<Index> cursor(start.begin(), start.end() - 1);
+  for (const Pair& p : in) out[cursor[p[0]]++] = p;
+  parallel_for(
+      n, [&](Index i) { std::sort(out.begin() + start[i], out.begin() + start[i + 1]); }, 1024);
+}
+
 }  // namespace
 
 SurfaceTopology make_surface_topology(std::vector<Tri> triangles) {
@@ -188,6 +200,12 @@ void Bvh::update_nodes() {
   }
 }
 
+std::vector<Index> Bvh::positions() const {
+  std::vector<Index> out(m_order.size());
+  for (size_t k = 0; k < m_order.size(); ++k) out[static_cast<size_t>(m_order[k])] = static_cast<Index>(k);
+  return out;
+}
+
 double Bvh::total_surface_area() const {
   double sum = 0.0;
   for (const Node& node : m_nodes) sum += surface_area(node.box);
@@ -258,11 +276,15 @@ void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates
                    if (!has_point(s.triangles[t], p)) pairs.push_back({v, t});
                  });
                });
-  gather_pairs(static_cast<Index>(s.edges.size()), m_chunks, out.edge_edge, [&](Index a, std::vector<Pair>& pairs) {
-    m_edges.query(m_edge_boxes[a], [&](Index b) {
-      if (b > a && !share_end(s.edges[a], s.edges[b])) pairs.push_back({a, b});
+  // Edges against their own tree: each pair is met once, from whichever of the two comes first in the tree's leaf
+  // order (half the traversal of querying every edge for all its partners), then put in ascending order.
+  const std::vector<Index> position = m_edges.positions();
+  gather_pairs(static_cast<Index>(s.edges.size()), m_chunks, m_unordered, [&](Index a, std::vector<Pair>& pairs) {
+    m_edges.query_after(m_edge_boxes[a], position[a], [&](Index b) {
+      if (!share_end(s.edges[a], s.edges[b])) pairs.push_back({std::min(a, b), std::max(a, b)});
     });
   });
+  sort_pairs(static_cast<Index>(s.edges.size()), m_unordered, out.edge_edge);
 }
 
 void find_brute_force(const SurfaceTopology& s, const VecX& x, double inflate, Candidates& out) {

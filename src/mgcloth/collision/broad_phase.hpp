@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/core/types.hpp>
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -56,6 +57,12 @@ class Bvh {
   /// Calls f(i) for every box i that overlaps `box`.
   template <class F>
   void query(const Aabb& box, F&& f) const;
+  /// The same, restricted to the boxes after position `after` in the tree's leaf order (see position()): a query of
+  /// the tree against itself that meets each pair once, and prunes the subtrees entirely before it.
+  template <class F>
+  void query_after(const Aabb& box, Index after, F&& f) const;
+  /// Per box, its position in the leaf order.
+  std::vector<Index> positions() const;
   size_t size() const { return m_leaf_box.size(); }
   /// Σ over the nodes of their boxes' surface areas: by the surface-area heuristic (MacDonald & Booth 1990), what
   /// the number of nodes a query visits grows with. A refit tree whose boxes have moved away from the ones they
@@ -78,23 +85,30 @@ class Bvh {
 };
 
 template <class F>
-void Bvh::query(const Aabb& box, F&& f) const {
+void Bvh::query_after(const Aabb& box, Index after, F&& f) const {
   if (m_nodes.empty() || !m_nodes[0].box.overlaps(box)) return;
   // Children are tested before they are pushed, so every node popped overlaps the query box. Median splits keep the
-  // depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes.
+  // depth below log2(n) + 1, so a fixed stack of 64 holds any tree of int-indexed boxes. A node's leaves are the
+  // contiguous range [first, first + count) of the leaf order.
+  const auto wanted = [&](const Node& n) { return n.first + n.count > after + 1 && n.box.overlaps(box); };
   Index stack[64];
   int top = 0;
   stack[top++] = 0;
   while (top > 0) {
     const Node& node = m_nodes[stack[--top]];
     if (node.left < 0) {
-      for (Index k = node.first; k < node.first + node.count; ++k)
+      for (Index k = std::max(node.first, after + 1); k < node.first + node.count; ++k)
         if (m_leaf_box[k].overlaps(box)) f(m_order[k]);
     } else {
-      if (m_nodes[node.right].box.overlaps(box)) stack[top++] = node.right;
-      if (m_nodes[node.left].box.overlaps(box)) stack[top++] = node.left;
+      if (wanted(m_nodes[node.right])) stack[top++] = node.right;
+      if (wanted(m_nodes[node.left])) stack[top++] = node.left;
     }
   }
+}
+
+template <class F>
+void Bvh::query(const Aabb& box, F&& f) const {
+  query_after(box, -1, f);
 }
 
 /// Broad phase over a surface: boxes of triangles, edges and vertices, their BVHs refit every call and rebuilt when
@@ -127,6 +141,7 @@ class BroadPhase {
   std::vector<Aabb> m_triangle_boxes, m_edge_boxes, m_vertex_boxes;
   double m_triangle_area_at_build = 0.0, m_edge_area_at_build = 0.0;
   std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results, kept for their capacity
+  std::vector<std::array<Index, 2>> m_unordered;             ///< edge pairs before sort_pairs
   Index m_builds = 0;
   double m_rebuild_growth = kRebuildGrowth;
 };
