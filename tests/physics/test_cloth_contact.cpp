@@ -1,4 +1,5 @@
 // Cloth–cloth contact: the layer's energy, the term's derivatives, neighbour filtering and step limits.
+#include <mgcloth/collision/distance.hpp>
 #include <mgcloth/collision/intersections.hpp>
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/mesh/generators.hpp>
@@ -181,6 +182,64 @@ TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
       EXPECT_GT(fresh.value(y), 0.0);
     }
   }
+}
+
+// A stack moving far as a whole while its sheets move a little relative to each other: the cache follows the common
+// motion, so every trial point must still see what a fresh term sees, and no step may let two primitives touch.
+TEST(ClothContact, AStackMovingAsAWholeKeepsEnergyAndStepLimitsExact) {
+  VecX x;
+  std::vector<ContactSurface> s;
+  s.push_back(sheet("a", 0.03, 25, 0.0, 0, x));
+  const Index top = static_cast<Index>(x.size() / 3);
+  s.push_back(sheet("b", 0.03, 25, 1.4e-3, top, x));
+  const Index n = static_cast<Index>(x.size() / 3);
+  ClothContact cached(s, n, ClothContactParams{});
+  const collision::SurfaceTopology topo = collision::make_surface_topology(cached.triangles());
+  const auto shares = [](const auto& a, const auto& b) {
+    for (Index i : a)
+      for (Index j : b)
+        if (i == j) return true;
+    return false;
+  };
+  // The smallest distance over every pair of primitives that share no point (brute force).
+  const auto min_distance = [&](const VecX& y) {
+    const auto p = [&](Index i) { return Vec3(y.segment<3>(3 * i)); };
+    double best = kInf;
+    for (Index v : topo.vertices)
+      for (const Tri& t : topo.triangles)
+        if (!shares(std::array<Index, 1>{v}, t))
+          best = std::min(best, collision::point_triangle_distance_sq(p(v), p(t[0]), p(t[1]), p(t[2])));
+    for (size_t a = 0; a < topo.edges.size(); ++a)
+      for (size_t b = a + 1; b < topo.edges.size(); ++b)
+        if (!shares(topo.edges[a], topo.edges[b]))
+          best = std::min(best, collision::edge_edge_distance_sq(p(topo.edges[a][0]), p(topo.edges[a][1]),
+                                                                 p(topo.edges[b][0]), p(topo.edges[b][1])));
+    return std::sqrt(best);
+  };
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int limited = 0;
+  for (int k = 0; k < 12; ++k) {
+    // Centimetres of common motion, up to a millimetre of relative motion (the top sheet pushed down on average).
+    const Vec3 common(0.03 * u(rng), 0.03 * u(rng), 0.05 * u(rng));
+    VecX d(x.size());
+    for (Index i = 0; i < n; ++i) {
+      const Vec3 rel = i < top ? Vec3::Zero() : Vec3(0.3e-3 * u(rng), 0.3e-3 * u(rng), 0.6e-3 * (u(rng) - 0.5));
+      d.segment<3>(3 * i) = common + rel;
+    }
+    const double a = cached.max_step(x, d, 1.0);
+    ASSERT_GT(a, 0.0);
+    if (a < 1.0) ++limited;
+    for (double f : {1.0, 0.7, 0.4, 0.1}) {
+      const VecX y = x + f * a * d;
+      ClothContact fresh(s, n, ClothContactParams{});
+      EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << k << " " << f;
+      EXPECT_GT(min_distance(y), 0.0) << k << " " << f;
+    }
+    EXPECT_EQ(collision::find_intersections(x + a * d, cached.triangles()).size(), 0u) << k;
+    x += 0.9 * a * d;
+  }
+  EXPECT_GT(limited, 0);  // the sheets did meet: some steps were stopped
 }
 
 TEST(ClothContact, RejectsBadParameters) {
