@@ -69,11 +69,14 @@ struct ContactStats {
 /// where the energy is +∞.
 ///
 /// The pairs near a point are cached: a rebuild at x_b finds every pair within r + 2δ (broad phase, then exact
-/// distances), which holds every pair inside the layer at any x with max_i |x_i − x_b,i| <= δ; farther points
-/// rebuild. max_step() builds the cache along its step x_b + [0, 1]·s instead (swept boxes), so that the trial
-/// points of the line search that follows all find it valid. The Hessian's stencils are the pairs within r + δ at the last change, kept until a pair inside the layer
-/// is missing from them, so the pattern (and the multigrid's Galerkin maps and colorings) changes only when the
-/// contact set does.
+/// distances), which holds every pair inside the layer at any x whose points all lie within δ of x_b after one common
+/// translation (distances ignore it); farther points rebuild. max_step() builds the cache along its step x_b + [0, 1]·s
+/// instead, in a frame moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below
+/// r + 2δ plus how far its own points move relative to each other), so that the trial points of the line search that
+/// follows all find it valid, and a stack of cloths falling together does not sweep everything it passes. A step
+/// whose two ends the cache covers needs no rebuild: the points it covers form a convex set. The Hessian's stencils
+/// are the pairs within r + δ at the last change, kept until a pair inside the layer is missing from them, so the
+/// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
 class ClothContact final : public Term {
  public:
   ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params);
