@@ -15,9 +15,9 @@ struct ClothFrictionPair {
 };
 
 struct ClothFrictionParams {
-  /// μ of every pair of cloths, a cloth with itself included, unless `pairs` sets its own. Woven fabrics on each
-  /// other measure about 0.3 (smooth synthetics, kinetic) to 0.6 (rough cotton, static); the lower end is the
-  /// kinetic coefficient of common cotton and polyester weaves, the one that governs sliding layers.
+  /// μ of every pair of cloths, a cloth with itself included, unless `pairs` sets its own. Fabrics on fabrics
+  /// measure about 0.3 to 0.6; one μ serves as both the static and the kinetic coefficient here, and the kinetic one,
+  /// which governs layers sliding over each other, is the lower: the low end.
   double friction = 0.3;
   std::vector<ClothFrictionPair> pairs;
   /// ε_v (m/s): relative tangential speeds below it are static friction, smoothed (Li et al. 2020, §5): a load
