@@ -211,6 +211,41 @@ TEST(ClothFriction, CoefficientsPerPairOfCloths) {
   EXPECT_EQ(none.value(t.x), 0.0);
 }
 
+TEST(ClothFriction, SelfContactPairsUseTheClothsOwnCoefficient) {
+  // A sheet folded onto itself half a layer apart: every pair inside the layer is one of the cloth with itself.
+  VecX x;
+  std::vector<ContactSurface> s{sheet("a", 0.1, 121, 0.0, 0, x)};
+  for (Index i = 0; i < x.size() / 3; ++i)
+    if (x[3 * i] > 0.05 + 1e-9) {
+      x[3 * i] = 0.1 - x[3 * i];
+      x[3 * i + 2] = 0.5e-3;
+    }
+  const Index n = static_cast<Index>(x.size() / 3);
+  ClothContact contact(s, n, ClothContactParams{});
+  const auto frames = contact.contact_frames(x);
+  ASSERT_GT(frames.size(), 10u);
+  for (const auto& f : frames) {
+    EXPECT_EQ(f.surface_a, 0);
+    EXPECT_EQ(f.surface_b, 0);
+  }
+  // The folded half slides along y, far beyond ε: D is linear in the cloth's own μ, whatever the default.
+  VecX y = x;
+  for (Index i = 0; i < n; ++i)
+    if (x[3 * i + 2] > 0.0) y[3 * i + 1] += 1e-3;
+  const auto energy = [&](double self) {
+    ClothFrictionParams p;
+    p.friction = 0.9;
+    p.pairs = {{"a", "a", self}};
+    ClothFriction f(n, {"a"}, p);
+    f.start_step(x, frames, 0.01);
+    EXPECT_EQ(f.num_pairs(), self > 0.0 ? static_cast<Index>(frames.size()) : 0);
+    return f.value(y);
+  };
+  EXPECT_GT(energy(0.3), 0.0);
+  EXPECT_NEAR(energy(0.7), 0.7 / 0.3 * energy(0.3), 1e-12 * energy(0.7));
+  EXPECT_EQ(energy(0.0), 0.0);
+}
+
 TEST(ClothFriction, RejectsBadCoefficients) {
   const std::vector<std::string> names{"a"};
   for (double bad : {-0.1, std::nan(""), kInf}) {

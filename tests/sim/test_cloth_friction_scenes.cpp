@@ -32,7 +32,9 @@ Json incline(double theta, double friction, double z = 1e-3) {
        {{{"name", "floor"},
          {"mesh", floor_mesh},
          {"pins", {{{"region", {{"min", {0.0, 0.0}}, {"max", {0.4, 0.12}}}}, {"stiffness", 1e6}}}}},
-        {{"name", "block"}, {"mesh", block_mesh}, {"transform", {{"translation", {0.04, 0.03, z}}, {"rotation_deg", {0, 0, 10}}}}}}},
+        {{"name", "block"},
+         {"mesh", block_mesh},
+         {"transform", {{"translation", {0.04, 0.03, z}}, {"rotation_deg", {0, 0, 10}}}}}}},
       {"cloth_contact", {{"friction", friction}}},
       {"solver", {{"name", "fmg"}, {"rel_grad", 1e-6}}},
   };

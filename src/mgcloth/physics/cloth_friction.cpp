@@ -7,9 +7,6 @@
 
 namespace mgcloth::physics {
 
-using Vec12 = Eigen::Matrix<double, 12, 1>;
-using Mat12 = Eigen::Matrix<double, 12, 12>;
-
 namespace {
 
 void check_coefficient(double mu, const std::string& what) {
@@ -24,7 +21,8 @@ ClothFriction::ClothFriction(Index num_points, const std::vector<std::string>& s
     : m_n(num_points), m_surfaces(static_cast<Index>(surfaces.size())), m_params(params) {
   check_coefficient(params.friction, "the friction coefficient");
   if (!(params.static_velocity > 0.0) || !std::isfinite(params.static_velocity))
-    throw_input_error("cloth friction: the static friction velocity must be positive and finite (got {})", params.static_velocity);
+    throw_input_error("cloth friction: the static friction velocity must be positive and finite (got {})",
+                      params.static_velocity);
   m_mu.assign(static_cast<size_t>(m_surfaces * m_surfaces), params.friction);
   // A pair names cloths of the whole scene; those of another group (solved separately) are not here.
   const auto find = [&](const std::string& name) -> Index {

@@ -35,7 +35,8 @@ physics::Material parse_material(JsonReader r, std::string& preset) {
 }
 
 /// cloth_contact.friction_pairs: per unordered pair of the scene's cloths (a cloth with itself too), its own μ.
-std::vector<physics::ClothFrictionPair> parse_friction_pairs(JsonReader& contact, const std::vector<ClothSpec>& cloths) {
+std::vector<physics::ClothFrictionPair> parse_friction_pairs(JsonReader& contact,
+                                                             const std::vector<ClothSpec>& cloths) {
   std::vector<physics::ClothFrictionPair> out;
   const auto entries = contact.objects("friction_pairs");
   for (size_t i = 0; i < entries.size(); ++i) {
@@ -51,8 +52,9 @@ std::vector<physics::ClothFrictionPair> parse_friction_pairs(JsonReader& contact
       if (std::none_of(cloths.begin(), cloths.end(), [&](const ClothSpec& c) { return c.name == n; })) {
         std::vector<std::string> known;
         for (const auto& c : cloths) known.push_back(fmt::format("\"{}\"", c.name));
-        r.fail(fmt::format("cloths[{}]", k), fmt::format("no cloth is named \"{}\" (the cloths: {})", n,
-                                                         known.empty() ? "none" : fmt::format("{}", fmt::join(known, ", "))));
+        r.fail(fmt::format("cloths[{}]", k),
+               known.empty() ? fmt::format("no cloth is named \"{}\" (the scene has no cloths)", n)
+                             : fmt::format("no cloth is named \"{}\" (the cloths: {})", n, fmt::join(known, ", ")));
       }
     }
     p.friction = r.required_number("friction", 0.0, 10.0);
