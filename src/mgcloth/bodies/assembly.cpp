@@ -90,6 +90,8 @@ VecX Assembly::prepare_step(const StepTime& step) {
     const VecX d = out - from;
     out = from + objective().max_step(from, d, 1.0) * d;
     m_contact->start_step(out);
+    // Friction is lagged at the state the step starts from, so that u/h is the relative tangential velocity.
+    if (m_friction) m_friction->start_step(from, m_contact->contact_frames(from), step.h);
   }
   return out;
 }
@@ -120,6 +122,29 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
   }
 }
 
+void Assembly::add_cloth_friction(const physics::ClothFrictionParams& params) {
+  if (m_friction) throw_error("Assembly: cloth friction added twice");
+  if (!m_contact) return;
+  std::vector<std::string> names;
+  for (const auto& s : m_contact->surfaces()) names.push_back(s.name);
+  auto term = std::make_unique<physics::ClothFriction>(num_points(), names, params);
+  bool any = false;
+  for (Index a = 0; a < static_cast<Index>(names.size()); ++a)
+    for (Index b = 0; b < static_cast<Index>(names.size()); ++b) any = any || term->friction(a, b) > 0.0;
+  if (!any) return;
+  m_friction = term.get();
+  if (m_bodies.size() == 1) {
+    physics::Objective& own = m_bodies[0]->objective();
+    own.add(std::move(term));
+    own.finalize();
+  } else if (m_objective) {
+    m_objective->add(std::move(term));
+    m_objective->finalize();
+  } else {
+    m_pending_friction = std::move(term);
+  }
+}
+
 std::unique_ptr<physics::Objective> Assembly::joint_objective(const std::vector<const physics::Objective*>& parts) const {
   Index n = 0;
   for (const auto* p : parts) n += p->num_vertices();
@@ -139,8 +164,9 @@ physics::Objective& Assembly::objective() {
     std::vector<const physics::Objective*> parts;
     for (Body* b : m_bodies) parts.push_back(&b->objective());
     m_objective = joint_objective(parts);
-    if (m_pending_contact) {
-      m_objective->add(std::move(m_pending_contact));
+    if (m_pending_contact || m_pending_friction) {
+      if (m_pending_contact) m_objective->add(std::move(m_pending_contact));
+      if (m_pending_friction) m_objective->add(std::move(m_pending_friction));
       m_objective->finalize();
     }
   }

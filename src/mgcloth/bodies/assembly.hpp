@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/bodies/body.hpp>
 #include <mgcloth/linalg/stencil_table.hpp>
+#include <mgcloth/physics/cloth_friction.hpp>
 
 #include <memory>
 #include <vector>
@@ -40,6 +41,11 @@ class Assembly {
   void add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness);
   /// The cloth contact term; null without one.
   const physics::ClothContact* cloth_contact() const { return m_contact; }
+  /// Lagged friction between the cloths of the contact term (add_cloth_contact first), frozen at every step's start
+  /// in prepare_step. Nothing is added where every coefficient is zero.
+  void add_cloth_friction(const physics::ClothFrictionParams& params);
+  /// The cloth friction term; null without one.
+  const physics::ClothFriction* cloth_friction() const { return m_friction; }
   /// Every body's feasibility projection on its part of the joint iterate; empty when no body has one.
   std::function<Index(VecX&)> feasibility_projection() const;
   /// Hands each body its part of the solve's result (finish_step), then writes the bodies' ends (projected) back.
@@ -57,6 +63,8 @@ class Assembly {
   std::unique_ptr<Union> m_galerkin, m_rediscretized;
   physics::ClothContact* m_contact = nullptr;
   std::unique_ptr<physics::ClothContact> m_pending_contact;  ///< a coupling term until the joint objective exists
+  physics::ClothFriction* m_friction = nullptr;
+  std::unique_ptr<physics::ClothFriction> m_pending_friction;
 };
 
 }  // namespace mgcloth::bodies

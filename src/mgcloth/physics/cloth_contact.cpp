@@ -423,4 +423,109 @@ ContactStats ClothContact::stats(const VecX& x) const {
   return out;
 }
 
+
+namespace {
+
+// The parameter of the point of segment (a, b) nearest to p, clamped to the segment.
+double segment_parameter(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 e = b - a;
+  const double ee = e.squaredNorm();
+  return ee > 0.0 ? std::clamp((p - a).dot(e) / ee, 0.0, 1.0) : 0.0;
+}
+
+// The weights of the nearest points for the pair's nearest-feature type (the type the energy uses), so that the
+// frozen relative position is the one whose length is the pair's distance.
+std::array<double, 4> point_triangle_weights(const Vec3& p, const Vec3& t0, const Vec3& t1, const Vec3& t2) {
+  using T = collision::PointTriangleType;
+  double b0 = 0.0, b1 = 0.0, b2 = 0.0;
+  switch (collision::point_triangle_type(p, t0, t1, t2)) {
+    case T::P_T0: b0 = 1.0; break;
+    case T::P_T1: b1 = 1.0; break;
+    case T::P_T2: b2 = 1.0; break;
+    case T::P_E0: b1 = segment_parameter(p, t0, t1), b0 = 1.0 - b1; break;
+    case T::P_E1: b2 = segment_parameter(p, t1, t2), b1 = 1.0 - b2; break;
+    case T::P_E2: b0 = segment_parameter(p, t2, t0), b2 = 1.0 - b0; break;
+    case T::P_T: {
+      // The classification only says P_T for a triangle that is not degenerate: the normal equations are regular.
+      const Vec3 e1 = t1 - t0, e2 = t2 - t0, r = p - t0;
+      const double a = e1.dot(e1), b = e1.dot(e2), c = e2.dot(e2), d = r.dot(e1), e = r.dot(e2);
+      const double det = a * c - b * b;
+      b1 = (c * d - b * e) / det;
+      b2 = (a * e - b * d) / det;
+      b0 = 1.0 - b1 - b2;
+      break;
+    }
+  }
+  return {1.0, -b0, -b1, -b2};
+}
+
+std::array<double, 4> edge_edge_weights(const Vec3& a0, const Vec3& a1, const Vec3& b0, const Vec3& b1) {
+  using T = collision::EdgeEdgeType;
+  double s = 0.0, t = 0.0;
+  switch (collision::edge_edge_type(a0, a1, b0, b1)) {
+    case T::EA0_EB0: break;
+    case T::EA0_EB1: t = 1.0; break;
+    case T::EA1_EB0: s = 1.0; break;
+    case T::EA1_EB1: s = t = 1.0; break;
+    case T::EA_EB0: s = segment_parameter(b0, a0, a1); break;
+    case T::EA_EB1: s = segment_parameter(b1, a0, a1), t = 1.0; break;
+    case T::EA0_EB: t = segment_parameter(a0, b0, b1); break;
+    case T::EA1_EB: s = 1.0, t = segment_parameter(a1, b0, b1); break;
+    case T::EA_EB: {
+      // As the classification computes them; it says EA_EB only where both lie inside (0, 1).
+      const Vec3 u = a1 - a0, v = b1 - b0, w = b0 - a0, n = u.cross(v);
+      const double nn = n.squaredNorm();
+      s = w.cross(v).dot(n) / nn;
+      t = w.cross(u).dot(n) / nn;
+      break;
+    }
+  }
+  return {1.0 - s, s, -(1.0 - t), -t};
+}
+
+// Two unit vectors completing n to an orthonormal basis; any completion gives the same tangential projector.
+Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n) {
+  Index axis = 0;
+  n.cwiseAbs().minCoeff(&axis);
+  const Vec3 t1 = n.cross(Vec3::Unit(axis)).normalized();
+  Eigen::Matrix<double, 3, 2> T;
+  T << t1, n.cross(t1);
+  return T;
+}
+
+}  // namespace
+
+std::vector<ClothContact::ContactFrame> ClothContact::contact_frames(const VecX& x) const {
+  const std::vector<Index> act = active(x);
+  std::vector<ContactFrame> out(act.size());
+  std::vector<char> keep(act.size(), 0);
+  parallel_for(static_cast<Index>(act.size()), [&](Index k) {
+    const Pair& p = m_near[static_cast<size_t>(act[static_cast<size_t>(k)])];
+    ContactFrame& f = out[static_cast<size_t>(k)];
+    f.v = p.v;
+    f.edge_edge = p.edge_edge;
+    const Vec3 a = at(x, p.v[0]), b = at(x, p.v[1]), c = at(x, p.v[2]), e = at(x, p.v[3]);
+    f.c = p.edge_edge ? edge_edge_weights(a, b, c, e) : point_triangle_weights(a, b, c, e);
+    const Vec3 rel = f.c[0] * a + f.c[1] * b + f.c[2] * c + f.c[3] * e;
+    const double d = distance(p, x);
+    if (!(rel.norm() > 0.0) || !(d > 0.0)) return;  // unreachable from an admissible point: no direction to freeze
+    f.normal = rel.normalized();
+    f.tangent = tangent_basis(f.normal);
+    double d1 = 0.0;
+    ContactLayer(p.r, m_params.barrier_fraction, p.weight).value(d, &d1);
+    f.normal_force = -d1;
+    f.surface_a = m_surface_of_point[p.v[0]];
+    f.surface_b = m_surface_of_point[p.v[p.edge_edge ? 2 : 1]];
+    keep[static_cast<size_t>(k)] = 1;
+  });
+  std::vector<ContactFrame> kept;
+  kept.reserve(out.size());
+  for (size_t k = 0; k < out.size(); ++k)
+    if (keep[k]) kept.push_back(out[k]);
+  std::sort(kept.begin(), kept.end(), [](const ContactFrame& l, const ContactFrame& r) {
+    return l.edge_edge != r.edge_edge ? r.edge_edge : l.v < r.v;
+  });
+  return kept;
+}
+
 }  // namespace mgcloth::physics

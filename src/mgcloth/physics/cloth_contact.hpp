@@ -155,6 +155,22 @@ class ClothContact final : public Term {
   std::vector<std::array<Index, 4>> m_stencils;  ///< sorted, the pattern's contact stencils
   bool m_stencils_pending = false;               ///< start_step changed them: the next update_stencils says so
   std::vector<std::array<Index, 16>> m_slots;    ///< per stencil, the pattern positions of its 4×4 blocks
+
+ public:
+  /// A pair inside the layer as lagged friction freezes it at a step's start (Li et al. 2020, §5): its points, the
+  /// weights c of its nearest points (Σ_i c_i x_i is the pair's relative position: the first side's nearest point
+  /// less the second's), the contact normal, an orthonormal tangent basis and the normal force.
+  struct ContactFrame {
+    std::array<Index, 4> v{};       ///< (p, t0, t1, t2) or (a0, a1, b0, b1), in the unknown's numbering
+    std::array<double, 4> c{};      ///< (1, −β0, −β1, −β2) or (1 − a, a, −(1 − b), −b)
+    bool edge_edge = false;
+    Vec3 normal = Vec3::Zero();     ///< Σ c_i x_i / d: from the second side towards the first
+    Eigen::Matrix<double, 3, 2> tangent = Eigen::Matrix<double, 3, 2>::Zero();  ///< orthonormal, ⟂ normal
+    double normal_force = 0.0;      ///< λ = −w ψ'(d) >= 0
+    Index surface_a = -1, surface_b = -1;  ///< the two sides' surfaces (indices into surfaces())
+  };
+  /// The frames of every pair inside the layer at x, sorted by their points (so independent of the cache's history).
+  std::vector<ContactFrame> contact_frames(const VecX& x) const;
 };
 
 }  // namespace mgcloth::physics

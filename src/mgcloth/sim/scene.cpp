@@ -34,6 +34,39 @@ physics::Material parse_material(JsonReader r, std::string& preset) {
   return m;
 }
 
+/// cloth_contact.friction_pairs: per unordered pair of the scene's cloths (a cloth with itself too), its own μ.
+std::vector<physics::ClothFrictionPair> parse_friction_pairs(JsonReader& contact,
+                                                             const std::vector<ClothSpec>& cloths) {
+  std::vector<physics::ClothFrictionPair> out;
+  const auto entries = contact.objects("friction_pairs");
+  for (size_t i = 0; i < entries.size(); ++i) {
+    JsonReader r = entries[i];
+    const Json& names = r.raw("cloths");
+    if (!names.is_array() || names.size() != 2 || !names[0].is_string() || !names[1].is_string())
+      r.fail("cloths", fmt::format("expected two cloth names, got {}", names.dump()));
+    physics::ClothFrictionPair p;
+    p.a = names[0].get<std::string>();
+    p.b = names[1].get<std::string>();
+    for (int k = 0; k < 2; ++k) {
+      const std::string& n = k == 0 ? p.a : p.b;
+      if (std::none_of(cloths.begin(), cloths.end(), [&](const ClothSpec& c) { return c.name == n; })) {
+        std::vector<std::string> known;
+        for (const auto& c : cloths) known.push_back(fmt::format("\"{}\"", c.name));
+        r.fail(fmt::format("cloths[{}]", k),
+               known.empty() ? fmt::format("no cloth is named \"{}\" (the scene has no cloths)", n)
+                             : fmt::format("no cloth is named \"{}\" (the cloths: {})", n, fmt::join(known, ", ")));
+      }
+    }
+    p.friction = r.required_number("friction", 0.0, 10.0);
+    for (size_t j = 0; j < out.size(); ++j)
+      if ((out[j].a == p.a && out[j].b == p.b) || (out[j].a == p.b && out[j].b == p.a))
+        r.fail("cloths", fmt::format("the pair \"{}\", \"{}\" is given twice (also friction_pairs[{}])", p.a, p.b, j));
+    r.finish();
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
 MeshSource parse_mesh(JsonReader r, const fs::path& base) {
   MeshSource s;
   if (r.has("file")) {
@@ -276,6 +309,9 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     cc.params.barrier_fraction = c->number("barrier_fraction", cc.params.barrier_fraction, 1e-3, 1.0);
     cc.params.ccd_separation = c->number("ccd_separation", cc.params.ccd_separation, 1e-3, 0.9);
     cc.check_intersections = c->boolean("check_intersections", cc.check_intersections);
+    cc.friction.friction = c->number("friction", cc.friction.friction, 0.0, 10.0);
+    cc.friction.static_velocity = c->number("static_friction_velocity", cc.friction.static_velocity, 1e-9, 10.0);
+    cc.friction.pairs = parse_friction_pairs(*c, s.cloths);
     c->finish();
   }
   if (auto so = r.optional_object("solver")) {
@@ -463,7 +499,12 @@ Json to_json(const Scene& s) {
                           {"stiffness", cc.params.stiffness},
                           {"barrier_fraction", cc.params.barrier_fraction},
                           {"ccd_separation", cc.params.ccd_separation},
-                          {"check_intersections", cc.check_intersections}};
+                          {"check_intersections", cc.check_intersections},
+                          {"friction", cc.friction.friction},
+                          {"static_friction_velocity", cc.friction.static_velocity},
+                          {"friction_pairs", Json::array()}};
+    for (const auto& p : cc.friction.pairs)
+      j["cloth_contact"]["friction_pairs"].push_back({{"cloths", {p.a, p.b}}, {"friction", p.friction}});
   }
   j["solver"] = {{"name", s.solver.name},
                  {"rel_grad", s.solver.stop.rel_grad},

@@ -4,6 +4,7 @@
 #include <mgcloth/geometry/obstacle.hpp>
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/generators.hpp>
+#include <mgcloth/physics/cloth_friction.hpp>
 #include <mgcloth/physics/contact.hpp>
 #include <mgcloth/physics/energy_form.hpp>
 #include <mgcloth/physics/material.hpp>
@@ -44,6 +45,8 @@ struct ClothContactSpec {
   bool enabled = false;
   double thickness = 1e-3;  ///< m, every cloth's unless it sets "contact_thickness"
   physics::ClothContactParams params;
+  /// Lagged Coulomb friction between cloths ("friction", "friction_pairs", "static_friction_velocity").
+  physics::ClothFrictionParams friction;
   /// Count intersections with the exact checker (collision::find_intersections) after every step (stats.csv's
   /// "intersections"); the guarantee is the solvers', this is the independent check of it.
   bool check_intersections = true;

@@ -119,6 +119,7 @@ void Simulator::add_cloth_contact() {
       thickness.push_back(t);
     }
     group->add_cloth_contact(m_scene.cloth_contact.params, thickness);
+    group->add_cloth_friction(m_scene.cloth_contact.friction);
     const physics::ClothContact* contact = group->cloth_contact();
     if (!contact) continue;
     size_t count = 0;
