@@ -42,7 +42,6 @@ void run_checked(sim::Simulator& s, int frames) {
   }
 }
 
-double mean_z(const sim::ClothBody& c) { return as_columns(c.x()).row(2).mean(); }
 double max_z(const sim::ClothBody& c) { return as_columns(c.x()).row(2).maxCoeff(); }
 
 }  // namespace
