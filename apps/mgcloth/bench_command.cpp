@@ -490,14 +490,17 @@ void add_bench_command(CLI::App& app) {
                    "Comma-separated solvers, each NAME or NAME@key=value@... (e.g. newton,newton@linear_solver=pcg-mg)")
       ->required();
   conv->add_option("--out,-o", g_conv.out, "Output folder (created if missing)")->required();
-  conv->add_option("--body", g_conv.body, "The cloth or shell whose step is benchmarked, by name (default: the first)");
+  conv->add_option("--body", g_conv.body,
+                   "The cloth or shell whose step is benchmarked, by name (default: the first); with cloth contact, "
+                   "the joint step of its contact group");
   conv->add_option("--budget", g_conv.budget, "Wall-time budget per solver, seconds")->default_val(10.0);
   conv->add_option("--max-iters", g_conv.max_iters, "Iteration cap per solver")->default_val(10000);
   conv->add_option("--reference-seconds", g_conv.reference_seconds,
                    "Wall-time cap of each E* reference solve, seconds (its final energy is used when it stops)")
       ->default_val(600.0);
   conv->add_option("--threads,-j", g_conv.threads, "Worker threads (default: the scene's)");
-  g_conv.vertices_option = conv->add_option("--vertices", g_conv.vertices, "Target vertex count of every generated cloth");
+  g_conv.vertices_option =
+      conv->add_option("--vertices", g_conv.vertices, "Target vertex count of each generated cloth (per cloth)");
   conv->add_option("--state-cache", g_conv.state_cache,
                    "File caching the state at the start of step K (reused when the scene, vertex count and K match)");
   conv->add_flag("--quiet,-q", g_conv.quiet, "No progress log");
