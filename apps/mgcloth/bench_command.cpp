@@ -16,6 +16,7 @@
 #include <mgcloth/studies/timestep_bench.hpp>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <charconv>
@@ -219,9 +220,17 @@ int run_convergence_command() {
   write_file_atomic(out / "convergence.csv", studies::convergence_csv(result));
   write_file_atomic(out / "convergence.json", studies::to_json(result, opt).dump(2) + "\n");
 
-  std::string table = fmt::format("{}: body \"{}\" ({} points), step {} (start state {}{})\n", result.scene,
-                                  result.cloth, result.vertices, result.step, result.start_state,
+  std::vector<std::string> bodies;
+  for (const auto& b : result.bodies) bodies.push_back(fmt::format("\"{}\"", b));
+  std::string table = fmt::format("{}: {} {} ({} points{}), step {} (start state {}{})\n", result.scene,
+                                  bodies.size() > 1 ? "bodies" : "body", fmt::join(bodies, " + "), result.vertices,
+                                  bodies.size() > 1 ? ", one joint step" : "", result.step, result.start_state,
                                   result.start_state == "simulated" ? " with " + result.warmup_solver : "");
+  const auto contact_text = [](const studies::ContactCheck& c) {
+    return fmt::format("{} contact pairs, min distance {:.3e} m, {} intersections", c.pairs, c.min_distance,
+                       c.intersections);
+  };
+  if (result.cloth_contact) table += fmt::format("cloth contact at x0: {}\n", contact_text(result.start));
   for (const auto& r : result.references)
     table += fmt::format("E* ({}) = {:.12e} by {}{}: {} iterations, relative gradient {:.1e} ({})\n", r.form, r.energy,
                          r.solver,
@@ -237,6 +246,10 @@ int run_convergence_command() {
     table += fmt::format("{:<{}}  {:<10}  {:>10}  {:>8.3f}  {:>8}  {:>8}  {:>8}  {:>11.2e}  {}\n", s.solver, width, s.form,
                          s.iterations, s.seconds, seconds_or_dash(s.time_to[0]), seconds_or_dash(s.time_to[1]),
                          seconds_or_dash(s.time_to[2]), s.final_error, s.status);
+  if (result.cloth_contact)
+    for (const auto& s : result.summaries)
+      table += fmt::format("cloth contact at the end of {}: {}\n", s.solver,
+                           s.contact.intersections < 0 ? std::string("- (no final iterate)") : contact_text(s.contact));
   std::fputs(table.c_str(), stdout);
   std::fflush(stdout);
 
@@ -477,14 +490,17 @@ void add_bench_command(CLI::App& app) {
                    "Comma-separated solvers, each NAME or NAME@key=value@... (e.g. newton,newton@linear_solver=pcg-mg)")
       ->required();
   conv->add_option("--out,-o", g_conv.out, "Output folder (created if missing)")->required();
-  conv->add_option("--body", g_conv.body, "The cloth or shell whose step is benchmarked, by name (default: the first)");
+  conv->add_option("--body", g_conv.body,
+                   "The cloth or shell whose step is benchmarked, by name (default: the first); with cloth contact, "
+                   "the joint step of its contact group");
   conv->add_option("--budget", g_conv.budget, "Wall-time budget per solver, seconds")->default_val(10.0);
   conv->add_option("--max-iters", g_conv.max_iters, "Iteration cap per solver")->default_val(10000);
   conv->add_option("--reference-seconds", g_conv.reference_seconds,
                    "Wall-time cap of each E* reference solve, seconds (its final energy is used when it stops)")
       ->default_val(600.0);
   conv->add_option("--threads,-j", g_conv.threads, "Worker threads (default: the scene's)");
-  g_conv.vertices_option = conv->add_option("--vertices", g_conv.vertices, "Target vertex count of every generated cloth");
+  g_conv.vertices_option =
+      conv->add_option("--vertices", g_conv.vertices, "Target vertex count of each generated cloth (per cloth)");
   conv->add_option("--state-cache", g_conv.state_cache,
                    "File caching the state at the start of step K (reused when the scene, vertex count and K match)");
   conv->add_flag("--quiet,-q", g_conv.quiet, "No progress log");

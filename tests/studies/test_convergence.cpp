@@ -309,3 +309,78 @@ TEST(Convergence, AShellsStepCanBeTheFrozenOne) {
   fs::remove(cache);
   fs::remove(cache.string() + ".references");
 }
+
+namespace {
+/// The first `sheets` sheets of the shipped layered drape, `vertices` each (with_vertex_count: per cloth).
+sim::Scene layers(size_t sheets, Index vertices) {
+  const std::string file = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/layers_sphere.json";
+  Json j = load_json(file);
+  j["cloths"] = Json(std::vector<Json>(j["cloths"].begin(), j["cloths"].begin() + static_cast<long>(sheets)));
+  return studies::with_vertex_count(sim::parse_scene(j, file, fs::path(file).parent_path()), vertices);
+}
+}  // namespace
+
+// Cloth contact couples the sheets, so the frozen problem is their joint step, contact term included, the same for
+// every solver; each run keeps the contact guarantee (checked by the exact intersection checker at its end).
+TEST(Convergence, AContactSceneFreezesTheJointStepOfItsSheets) {
+  const sim::Scene scene = layers(2, 150);
+  studies::ConvergenceOptions opt;
+  opt.step = 5;  // the upper sheet lies on the lower one, which lies on the sphere
+  opt.solvers = studies::parse_solver_list("fmg,newton-direct,newton-amg");
+  opt.budget_seconds = 5.0;
+  opt.max_iters = 60;  // each reaches 1e-3 within 40 (0.2 s)
+  opt.threads = 1;
+  opt.body = "sheet2";  // any sheet: both are in the group
+  const auto r = studies::run_convergence(scene, opt);
+  EXPECT_TRUE(r.cloth_contact);
+  EXPECT_EQ(r.cloth, "sheet2");
+  EXPECT_EQ(r.bodies, (std::vector<std::string>{"sheet1", "sheet2"}));
+  const sim::Simulator s(scene);
+  ASSERT_EQ(s.bodies().size(), 2u);
+  EXPECT_EQ(s.bodies()[0]->num_points(), s.bodies()[1]->num_points());  // --vertices: each sheet's own count
+  EXPECT_EQ(r.vertices, s.bodies()[0]->num_points() + s.bodies()[1]->num_points());
+  EXPECT_GT(r.start.pairs, 0) << "the sheets must touch at x0, or the test measures nothing about contact";
+  EXPECT_EQ(r.start.intersections, 0);
+  EXPECT_GT(r.start.min_distance, 0.0);
+  ASSERT_EQ(r.references.size(), 1u);
+  EXPECT_TRUE(r.references[0].reached) << r.references[0].rel_grad;
+  ASSERT_EQ(r.summaries.size(), 3u);
+  for (const auto& sm : r.summaries) {
+    SCOPED_TRACE(sm.solver);
+    EXPECT_TRUE(sm.time_to[1]) << sm.status << ", final error " << sm.final_error;  // 1e-3
+    EXPECT_EQ(sm.contact.intersections, 0);
+    EXPECT_GT(sm.contact.pairs, 0);
+    EXPECT_GT(sm.contact.min_distance, 0.0);
+  }
+  for (const auto& label : {"fmg", "newton-direct", "newton-amg"}) {  // the same x0: the same E_0
+    const auto it = std::find_if(r.rows.begin(), r.rows.end(), [&](const auto& row) { return row.solver == label; });
+    ASSERT_NE(it, r.rows.end());
+    EXPECT_EQ(it->energy, r.references[0].initial_energy) << label;
+  }
+  const Json j = studies::to_json(r, opt);
+  EXPECT_EQ(j.at("vertices").get<Index>(), r.vertices);
+  EXPECT_EQ(j.at("contact_at_x0").at("intersections").get<Index>(), 0);
+  EXPECT_EQ(j.at("solvers")[0].at("contact_at_end").at("intersections").get<Index>(), 0);
+}
+
+// Solvers that do not keep their trial points within the contact's step limits are refused by name, with the list
+// of those that do, before anything is simulated (no state is cached).
+TEST(Convergence, AContactSceneRefusesSolversThatCannotKeepContact) {
+  const fs::path cache = temp_file("mgcloth_contact_refusal_cache");
+  fs::remove(cache);
+  studies::ConvergenceOptions opt;
+  opt.step = 5;
+  opt.solvers = studies::parse_solver_list("fmg,rmtr,fas");
+  opt.state_cache = cache.string();
+  try {
+    studies::run_convergence(layers(2, 150), opt);
+    ADD_FAILURE() << "rmtr and fas must be refused on a contact scene";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("solvers \"rmtr\", \"fas\" do not keep their trial points intersection-free"), std::string::npos) << m;
+    EXPECT_NE(m.find("those that do: fmg"), std::string::npos) << m;
+    EXPECT_NE(m.find("newton-direct"), std::string::npos) << m;
+    EXPECT_NE(m.find("layers_sphere.json"), std::string::npos) << m;
+  }
+  EXPECT_FALSE(fs::exists(cache));
+}

@@ -1,3 +1,4 @@
+#include <mgcloth/collision/intersections.hpp>
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
@@ -56,8 +57,7 @@ SolverSpec elastic_reference() {
   return parse_solver_spec("newton@linear_solver=cholmod");
 }
 
-/// The studied body's index among the scene's bodies (its cloths, then its shells), which is also its group: the
-/// study's simulators solve every body separately.
+/// The studied body's index among the scene's bodies (its cloths, then its shells).
 size_t study_body(const sim::Scene& scene, const std::string& name) {
   std::vector<std::string> names;
   for (const auto& c : scene.cloths) names.push_back(c.name);
@@ -74,7 +74,9 @@ std::string form_name(bool projective) { return projective ? "projective" : "ela
 /// The scene with `spec` as its solver (its stop criteria kept), in the energy form the solver was made for (the
 /// study compares each solver on its own form), and the options' thread count.
 sim::Scene with_solver(sim::Scene scene, const SolverSpec& spec, int threads) {
-  scene.solve_jointly = false;  // the study freezes one body's own step objective
+  // Without cloth contact a joint objective is the sum of its bodies' own: one body's step is its block, solved on
+  // its own. Contact couples the cloths, and only their group's step is the problem a simulation solves.
+  if (!frozen_group_is_scenes(scene)) scene.solve_jointly = false;
   scene.solver.name = spec.config.name;
   scene.solver.params = spec.config.params;
   scene.energy_form = check_solver_spec(spec) ? physics::EnergyForm::Projective : physics::EnergyForm::Elastic;
@@ -87,6 +89,25 @@ std::unique_ptr<sim::Simulator> simulator_at(const sim::Scene& scene, const Solv
   auto sim = std::make_unique<sim::Simulator>(with_solver(scene, spec, threads));
   sim->set_state(state.frame, state.step, state.x, state.v);
   return sim;
+}
+
+/// The group of the studied body in `sim` (the body's own without cloth contact; see with_solver).
+size_t study_group(const sim::Simulator& sim, const sim::Scene& scene, const std::string& body) {
+  return sim.group_of(study_body(scene, body));
+}
+
+/// Cloth contact at x, measured as Simulator::step measures it for stats.csv (the exact checker always runs here:
+/// the guarantee is what the study checks).
+ContactCheck contact_check(const physics::ClothContact* contact, const VecX& x) {
+  ContactCheck c;
+  if (!contact) return c;
+  const physics::ContactStats cs = contact->stats(x);
+  c.pairs = cs.pairs;
+  c.min_distance = cs.min_distance;
+  size_t count = 0;
+  collision::find_intersections(x, contact->triangles(), 0, &count);
+  c.intersections = static_cast<Index>(count);
+  return c;
 }
 
 double rel_grad_of(const solvers::SolveReport& r) {
@@ -181,7 +202,8 @@ ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec,
                                 const ConvergenceOptions& opt, const SimState& state, const VecX& x0, const VecX& from) {
   auto sim = simulator_at(scene, spec, opt.threads, state);
   VecX start;
-  solvers::Problem problem = sim->prepare_problem(study_body(scene, opt.body), start);
+  const size_t group = study_group(*sim, scene, opt.body);
+  solvers::Problem problem = sim->prepare_problem(group, start);
   VecX x = from;
   ReferenceEnergy ref;
   ref.form = form_name(projective);
@@ -196,7 +218,7 @@ ReferenceEnergy solve_reference(const sim::Scene& scene, const SolverSpec& spec,
   stop.max_iters = max_iters;
   stop.max_seconds = opt.reference_max_seconds;
   Timer timer;
-  const solvers::SolveReport r = sim->solver(0).minimize(problem, x, stop, nullptr);
+  const solvers::SolveReport r = sim->solver(group).minimize(problem, x, stop, nullptr);
   ref.seconds = timer.seconds();
   ref.energy = problem.objective->value(x);
   ref.iterations = r.iterations;
@@ -258,6 +280,8 @@ bool check_solver_spec(const SolverSpec& spec) {
   return solvers::make_solver(spec.config, fmt::format("solver \"{}\"", spec.label), spec.config.name)->energy_forms().front() ==
          physics::EnergyForm::Projective;
 }
+
+bool frozen_group_is_scenes(const sim::Scene& scene) { return scene.cloth_contact.enabled && !scene.cloths.empty(); }
 
 double relative_energy_error(double energy, double initial_energy, double min_energy) {
   const double range = initial_energy - min_energy;
@@ -372,6 +396,7 @@ struct Study {
   const sim::Scene& scene;
   const ConvergenceOptions& opt;
   size_t body = 0;                 ///< study_body(scene, opt.body)
+  size_t group = 0;                ///< its group in the study's simulators (study_group)
   std::vector<bool> projective;    ///< per opt.solvers: whether it minimizes the Projective Dynamics form
   SolverSpec elastic;              ///< simulates steps 1 … K − 1 and gives the elastic form's E*
   Json key{};                      ///< what the state at the start of step K depends on
@@ -390,9 +415,20 @@ struct Study {
 /// fails before anything is simulated. Returns per spec whether it is projective.
 std::vector<bool> check_study(const sim::Scene& scene, const ConvergenceOptions& opt) {
   check_options(opt);
-  (void)study_body(scene, opt.body);
+  const size_t body = study_body(scene, opt.body);
   std::vector<bool> projective;
   for (const auto& spec : opt.solvers) projective.push_back(check_solver_spec(spec));
+  // Refused here, all at once, rather than by the first prepare_problem after minutes of simulated steps.
+  const bool contact = scene.cloth_contact.enabled && (body < scene.cloths.size() || scene.solve_jointly);
+  std::vector<std::string> refused;
+  for (const auto& spec : opt.solvers)
+    if (contact && !solvers::make_solver(spec.config, spec.label, spec.config.name)->supports_step_limits())
+      refused.push_back(fmt::format("\"{}\"", spec.label));
+  if (!refused.empty())
+    throw_input_error("{}: the frozen step has cloth contact, and solver{} {} do{} not keep {} trial points "
+                      "intersection-free; those that do: {}", scene.file, refused.size() > 1 ? "s" : "",
+                      fmt::join(refused, ", "), refused.size() > 1 ? "" : "es", refused.size() > 1 ? "their" : "its",
+                      fmt::join(solvers::step_limiting_solvers(), ", "));
   const bool any_projective = std::find(projective.begin(), projective.end(), true) != projective.end();
   if (any_projective && !has_solver("pd-direct"))
     throw_input_error("the Projective Dynamics solvers need \"pd-direct\" for their E*, and this build has no such "
@@ -426,11 +462,17 @@ SimState start_of_step(const Study& st, ConvergenceResult& result) {
   return *state;
 }
 
-/// The frozen problem's start point, from a simulator of the elastic form.
-VecX frozen_start(const Study& st) {
+/// The frozen problem's start point, from a simulator of the elastic form, with its group, its bodies and, with
+/// cloth contact, the contact there.
+VecX frozen_start(Study& st, ConvergenceResult& result) {
   VecX x0;
   auto sim = simulator_at(st.scene, st.elastic, st.opt.threads, st.state);
-  (void)sim->prepare_problem(st.body, x0);
+  st.group = study_group(*sim, st.scene, st.opt.body);
+  (void)sim->prepare_problem(st.group, x0);
+  const bodies::Assembly& group = sim->group(st.group);
+  for (const bodies::Body* b : group.bodies()) result.bodies.push_back(b->name());
+  result.cloth_contact = group.cloth_contact() != nullptr;
+  result.start = contact_check(group.cloth_contact(), x0);
   return x0;
 }
 
@@ -495,7 +537,8 @@ void add_rows(const solvers::Trace& trace, const std::string& solver, double min
 /// The timed run of solver i from x0 to the budget or the iteration cap: its rows, its summary, and its final
 /// iterate where it is the lowest of its form so far.
 void timed_run(Study& st, size_t i, solvers::NonlinearSolver& solver, solvers::Problem& problem,
-               const ReferenceEnergy& ref, SolverSummary& summary, ConvergenceResult& result) {
+               const physics::ClothContact* contact, const ReferenceEnergy& ref, SolverSummary& summary,
+               ConvergenceResult& result) {
   const SolverSpec& spec = st.opt.solvers[i];
   VecX x = st.x0;
   solvers::Stop stop;
@@ -526,8 +569,12 @@ void timed_run(Study& st, size_t i, solvers::NonlinearSolver& solver, solvers::P
   summary.seconds = report.wall_ms / 1e3;
   summary.status = report.status;
   summary.counters = report.counters;
+  summary.contact = contact_check(contact, x);
   logger().info("{}: {} iterations in {:.2f} s ({}), relative energy error {:.2e}", spec.label, summary.iterations,
                 summary.seconds, summary.status, summary.final_error);
+  if (contact)
+    logger().info("{}: at its end {} contact pairs, min distance {:.3e} m, {} intersections", spec.label,
+                  summary.contact.pairs, summary.contact.min_distance, summary.contact.intersections);
 }
 
 /// Solver i on its own simulator, so that it gets the problem it gets in a simulation (hierarchy, coarse
@@ -537,19 +584,19 @@ void run_solver(Study& st, size_t i, ConvergenceResult& result) {
   const ReferenceEnergy& ref = result.references[static_cast<size_t>(st.ref_index[st.projective[i] ? 1 : 0])];
   auto sim = simulator_at(st.scene, spec, st.opt.threads, st.state);
   VecX own_start;
-  solvers::Problem problem = sim->prepare_problem(st.body, own_start);
+  solvers::Problem problem = sim->prepare_problem(st.group, own_start);
   if (own_start.size() != st.x0.size())
     throw_error("{}: its simulator has {} dofs, the reference's {}", spec.label, own_start.size(), st.x0.size());
   if ((own_start - st.x0).cwiseAbs().maxCoeff() > 1e-12)
     logger().warn("{}: its simulator predicts a different start point; every solver starts from the same x0", spec.label);
-  solvers::NonlinearSolver& solver = sim->solver(0);
+  solvers::NonlinearSolver& solver = sim->solver(st.group);
   SolverSummary summary;
   summary.solver = spec.label;
   summary.form = ref.form;
   Timer timer;
   if (warm_up(solver, problem, st.x0, spec, summary)) {
     summary.warmup_seconds = timer.seconds();
-    timed_run(st, i, solver, problem, ref, summary, result);
+    timed_run(st, i, solver, problem, sim->group(st.group).cloth_contact(), ref, summary, result);
   }
   result.summaries.push_back(summary);
 }
@@ -604,7 +651,7 @@ ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOpti
                                                : scene.shells[st.body - scene.cloths.size()].name;
   result.step = opt.step;
   result.warmup_solver = st.elastic.label;
-  if (scene.cloths.size() + scene.shells.size() > 1)
+  if (scene.cloths.size() + scene.shells.size() > 1 && !frozen_group_is_scenes(scene))
     logger().info("{}: {} bodies; the benchmark freezes the objective of \"{}\" (--body) only", scene.file,
                   scene.cloths.size() + scene.shells.size(), result.cloth);
 
@@ -612,9 +659,13 @@ ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOpti
             {"scene", state_cache_key(with_solver(scene, st.elastic, 0))},
             {"steps", static_cast<long>(opt.step - 1)}};
   st.state = start_of_step(st, result);
-  st.x0 = frozen_start(st);
+  st.x0 = frozen_start(st, result);
   result.vertices = static_cast<Index>(st.x0.size() / 3);
-  logger().info("{}: step {} of \"{}\" ({} points)", scene.file, opt.step, result.cloth, result.vertices);
+  logger().info("{}: step {} of {} ({} points{})", scene.file, opt.step, fmt::join(result.bodies, " + "),
+                result.vertices, result.bodies.size() > 1 ? ", jointly: cloth contact couples them" : "");
+  if (result.cloth_contact)
+    logger().info("at x0: {} contact pairs, min distance {:.3e} m, {} intersections", result.start.pairs,
+                  result.start.min_distance, result.start.intersections);
 
   find_references(st, result);
   for (size_t i = 0; i < opt.solvers.size(); ++i) run_solver(st, i, result);
@@ -634,6 +685,10 @@ namespace {
 Json number_or_null(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
 Json number_or_null(const std::optional<double>& v) { return v ? Json(*v) : Json(nullptr); }
 std::string level_key(double level) { return fmt::format("{:.0e}", level); }
+Json contact_json(const ContactCheck& c) {
+  // +inf (no pair within the contact's reach) is written as null, like every non-finite number here.
+  return {{"contact_pairs", c.pairs}, {"min_distance", number_or_null(c.min_distance)}, {"intersections", c.intersections}};
+}
 }  // namespace
 
 Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
@@ -661,31 +716,36 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
                        {"final_rel_grad", s.final_rel_grad},
                        {"time_to", time_to},
                        {"counters", counters}});
+    if (result.cloth_contact) solvers.back()["contact_at_end"] = contact_json(s.contact);
   }
   Json specs = Json::array();
   for (const auto& s : opt.solvers) specs.push_back({{"label", s.label}, {"name", s.config.name}, {"params", s.config.params}});
-  return {{"scene", result.scene},
-          {"cloth", result.cloth},
-          {"vertices", result.vertices},
-          {"step", result.step},
-          {"start_state", result.start_state},
-          {"steps_before_by", result.warmup_solver},
-          {"rel_energy_error", "(E_k - E*)/(E_0 - E*), E* of the solver's energy form"},
-          {"timing", "each solver is warmed up by one untimed iteration on a copy of x0 (one-time set-up), then timed"},
-          {"options",
-           {{"step", opt.step},
-            {"body", result.cloth},
-            {"budget_seconds", opt.budget_seconds},
-            {"max_iters", opt.max_iters},
-            {"threads", opt.threads > 0 ? opt.threads : num_threads()},
-            {"state_cache", opt.state_cache},
-            {"reference_rel_grad", opt.reference_rel_grad},
-            {"reference_max_iters", opt.reference_max_iters},
-            {"pd_reference_max_iters", opt.pd_reference_max_iters},
-            {"reference_max_seconds", opt.reference_max_seconds},
-            {"solvers", specs}}},
-          {"references", refs},
-          {"solvers", solvers}};
+  Json out = {{"scene", result.scene},
+             {"cloth", result.cloth},
+             {"bodies", result.bodies},
+             {"vertices", result.vertices},
+             {"cloth_contact", result.cloth_contact},
+             {"step", result.step},
+             {"start_state", result.start_state},
+             {"steps_before_by", result.warmup_solver},
+             {"rel_energy_error", "(E_k - E*)/(E_0 - E*), E* of the solver's energy form"},
+             {"timing", "each solver is warmed up by one untimed iteration on a copy of x0 (one-time set-up), then timed"},
+             {"options",
+              {{"step", opt.step},
+               {"body", result.cloth},
+               {"budget_seconds", opt.budget_seconds},
+               {"max_iters", opt.max_iters},
+               {"threads", opt.threads > 0 ? opt.threads : num_threads()},
+               {"state_cache", opt.state_cache},
+               {"reference_rel_grad", opt.reference_rel_grad},
+               {"reference_max_iters", opt.reference_max_iters},
+               {"pd_reference_max_iters", opt.pd_reference_max_iters},
+               {"reference_max_seconds", opt.reference_max_seconds},
+               {"solvers", specs}}},
+             {"references", refs},
+             {"solvers", solvers}};
+  if (result.cloth_contact) out["contact_at_x0"] = contact_json(result.start);
+  return out;
 }
 
 std::vector<ScalabilityRow> run_scalability(const sim::Scene& scene, const ScalabilityOptions& opt) {

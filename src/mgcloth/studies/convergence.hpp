@@ -5,6 +5,7 @@
 #include <mgcloth/sim/simulator.hpp>
 
 #include <array>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,8 +32,9 @@ bool check_solver_spec(const SolverSpec& spec);
 /// (E_k − E*)/(E_0 − E*): 1 at the start point, 0 at the minimum. NaN when E_0 <= E* (nothing to measure).
 double relative_energy_error(double energy, double initial_energy, double min_energy);
 
-/// Every generated cloth mesh (rectangle or tube) of the scene with `vertices` as its target vertex count; a cloth
-/// read from a file is InputError (it cannot be resized).
+/// Every generated cloth mesh (rectangle or tube) of the scene with `vertices` as its target vertex count, each
+/// cloth its own (five sheets at 2000 make a problem of about 10,000 points); a cloth read from a file is InputError
+/// (it cannot be resized).
 sim::Scene with_vertex_count(sim::Scene scene, Index vertices);
 
 /// A simulator state: completed frames and steps, and every body's positions and velocities (Simulator::bodies()).
@@ -54,8 +56,11 @@ void save_state_cache(const std::filesystem::path& file, const Json& key, const 
 
 struct ConvergenceOptions {
   int step = 1;  ///< K: the benchmarked step is the K-th of the scene (K − 1 steps are simulated first)
-  /// The body whose step objective is frozen (a cloth or shell of the scene by name; empty: the first body). The
-  /// study simulates the scene with every body solved separately, so the frozen problem is that body's own.
+  /// The body whose step objective is frozen (a cloth or shell of the scene by name; empty: the first body).
+  /// Without cloth contact nothing couples the bodies: the study simulates the scene with every body solved
+  /// separately, so the frozen problem is that body's own. With cloth contact (frozen_group_is_scenes) it keeps the
+  /// scene's groups, and the frozen problem is the joint step of the group that holds the body: every cloth, the
+  /// contact term included.
   std::string body;
   std::vector<SolverSpec> solvers;
   double budget_seconds = 10.0;  ///< wall time per solver (the timed run)
@@ -95,6 +100,15 @@ struct ConvergenceRow {
   double rel_energy_error = 0.0;
 };
 
+/// Cloth contact at one point of the frozen problem (all -1/NaN without cloth contact): pairs inside the contact
+/// layer and the smallest distance (physics::ClothContact::stats; +inf: no pair within reach), and the triangle pairs
+/// that intersect by the independent exact checker (collision::find_intersections), as stats.csv has them.
+struct ContactCheck {
+  Index pairs = -1;
+  double min_distance = std::numeric_limits<double>::quiet_NaN();
+  Index intersections = -1;
+};
+
 /// The error levels the summary reports the time to reach.
 inline constexpr std::array<double, 3> kErrorLevels{1e-2, 1e-3, 1e-4};
 
@@ -110,12 +124,21 @@ struct SolverSummary {
   std::array<std::optional<double>, kErrorLevels.size()> time_to{};  ///< first wall_s with error <= level
   /// The timed run's solver counters (SolveReport::counters: time per phase, line-search evaluations, …).
   std::vector<std::pair<std::string, double>> counters;
+  ContactCheck contact;  ///< at the timed run's final iterate (cloth contact only)
 };
+
+/// Whether the study keeps the scene's groups and freezes the step of the group that holds the body (cloth contact
+/// couples the bodies of a group) rather than the body's own step.
+bool frozen_group_is_scenes(const sim::Scene& scene);
 
 struct ConvergenceResult {
   std::string scene;
-  std::string cloth;  ///< the benchmarked cloth (cloth 0)
-  Index vertices = 0;
+  std::string cloth;  ///< the body chosen (ConvergenceOptions::body; default the first)
+  std::vector<std::string> bodies;  ///< the bodies of the frozen problem: the chosen one, or its whole group
+  Index vertices = 0;  ///< points of the whole frozen problem (every body of `bodies`)
+  bool cloth_contact = false;  ///< the frozen problem has a cloth contact term (then `start` and each summary's
+                               ///< `contact` are measured)
+  ContactCheck start;  ///< contact at x0
   int step = 1;
   std::string start_state;  ///< "simulated" or "cache"
   std::string warmup_solver;  ///< the solver that simulated steps 1 … K − 1
@@ -129,13 +152,17 @@ std::optional<double> time_to_error(const std::vector<ConvergenceRow>& rows, con
 
 /// The convergence benchmark. Simulates the scene to the start of step K with the reference solver
 /// (`newton-direct`, or `newton` with CHOLMOD where that is not built) and the scene's stop criteria, or loads that
-/// state from opt.state_cache; freezes step K's objective of cloth 0 and runs every solver from the same start x0,
+/// state from opt.state_cache; freezes step K's objective of the chosen body (or, with cloth contact, of its group:
+/// frozen_group_is_scenes) and runs every solver from the same start x0,
 /// each with its own Simulator so that it gets the problem it gets in a simulation (hierarchy, coarse objectives,
 /// and the Projective Dynamics energy form for projective solvers). Each solver is warmed up first by one
 /// iteration on a copy of x0 (untimed, so that one-time set-up — symbolic factorizations, colorings, hierarchies —
 /// is not charged to the step), then timed to opt.budget_seconds or opt.max_iters. E* per energy form comes from
 /// the reference solver of that form (newton-direct; pd-direct) run from x0 to opt.reference_rel_grad.
-/// Every spec is checked (check_solver_spec) before anything is simulated.
+/// Every spec is checked (check_solver_spec) before anything is simulated; with cloth contact, solvers that do not
+/// keep their trial points within the contact's step limits are refused then too, by name. The frozen problem is
+/// the one Simulator::prepare_problem gives a simulation (the contact-limited start point, no projection), so every
+/// solver keeps the contact guarantee by itself; the result has the contact at x0 and at each solver's end.
 ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt);
 
 /// convergence.csv: solver,iteration,wall_s,energy,grad_norm,rel_energy_error.
