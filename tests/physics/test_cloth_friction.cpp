@@ -6,6 +6,7 @@
 #include <mgcloth/physics/cloth_contact.hpp>
 #include <mgcloth/physics/cloth_friction.hpp>
 
+#include "contact_fixtures.hpp"
 #include "term_checks.hpp"
 
 #include <gtest/gtest.h>
@@ -18,27 +19,7 @@
 namespace mgcloth::physics {
 namespace {
 
-ContactSurface sheet(const std::string& name, double side, Index target, double z, Index offset, VecX& x) {
-  mesh::RectangleSpec spec;
-  spec.width = spec.height = side;
-  spec.target_vertices = target;
-  const mesh::TriMesh m = mesh::make_rectangle(spec);
-  ContactSurface s;
-  s.name = name;
-  s.offset = offset;
-  s.tris = m.tris;
-  s.material = m.u;
-  s.area = VecX::Zero(m.num_vertices());
-  for (const Tri& t : m.tris) {
-    const double a = std::abs(m.material_area(&t - m.tris.data())) / 3.0;
-    for (Index v : t) s.area[v] += a;
-  }
-  s.thickness = 1e-3;
-  const Index n0 = static_cast<Index>(x.size() / 3);
-  x.conservativeResize(3 * (n0 + m.num_vertices()));
-  for (Index i = 0; i < m.num_vertices(); ++i) x.segment<3>(3 * (n0 + i)) = Vec3(m.u(0, i), m.u(1, i), z);
-  return s;
-}
+using fixtures::sheet;
 
 /// Two small sheets half a layer apart, jittered and shifted so that every pair type is inside the layer.
 struct TwoSheets {

@@ -4,6 +4,8 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include "resume_fixture.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -192,14 +194,8 @@ TEST(ClothFrictionScenes, AResumedSlideRepeatsTheUninterruptedOneBitForBit) {
   sim::Simulator straight(scene), first(scene);
   for (int f = 0; f < 10; ++f) straight.advance_frame();
   for (int f = 0; f < 5; ++f) first.advance_frame();
-  std::vector<VecX> x, v;
-  for (const auto& b : first.bodies()) {
-    x.push_back(b->x());
-    v.push_back(b->v());
-  }
-  sim::Simulator resumed(scene);
-  resumed.set_state(first.frame(), first.step_count(), x, v);
-  for (size_t b = 0; b < first.bodies().size(); ++b) resumed.set_solver_state(b, first.solver_state(b));
+  auto resumed_ptr = sim::fixtures::resumed_from(scene, first);
+  sim::Simulator& resumed = *resumed_ptr;
   for (int f = 5; f < 10; ++f) resumed.advance_frame();
   ASSERT_TRUE(resumed.group(0).cloth_friction());
   EXPECT_GT(resumed.group(0).cloth_friction()->num_pairs(), 0);

@@ -110,6 +110,10 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
   if (surfaces.empty()) return;
   auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params);
   m_contact = term.get();
+  add_coupling(std::move(term));
+}
+
+void Assembly::add_coupling(std::unique_ptr<physics::Term> term) {
   if (m_bodies.size() == 1) {
     physics::Objective& own = m_bodies[0]->objective();
     own.add(std::move(term));
@@ -118,7 +122,7 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
     m_objective->add(std::move(term));
     m_objective->finalize();
   } else {
-    m_pending_contact = std::move(term);
+    m_pending.push_back(std::move(term));
   }
 }
 
@@ -133,16 +137,7 @@ void Assembly::add_cloth_friction(const physics::ClothFrictionParams& params) {
     for (Index b = 0; b < static_cast<Index>(names.size()); ++b) any = any || term->friction(a, b) > 0.0;
   if (!any) return;
   m_friction = term.get();
-  if (m_bodies.size() == 1) {
-    physics::Objective& own = m_bodies[0]->objective();
-    own.add(std::move(term));
-    own.finalize();
-  } else if (m_objective) {
-    m_objective->add(std::move(term));
-    m_objective->finalize();
-  } else {
-    m_pending_friction = std::move(term);
-  }
+  add_coupling(std::move(term));
 }
 
 std::unique_ptr<physics::Objective> Assembly::joint_objective(const std::vector<const physics::Objective*>& parts) const {
@@ -164,9 +159,9 @@ physics::Objective& Assembly::objective() {
     std::vector<const physics::Objective*> parts;
     for (Body* b : m_bodies) parts.push_back(&b->objective());
     m_objective = joint_objective(parts);
-    if (m_pending_contact || m_pending_friction) {
-      if (m_pending_contact) m_objective->add(std::move(m_pending_contact));
-      if (m_pending_friction) m_objective->add(std::move(m_pending_friction));
+    if (!m_pending.empty()) {
+      for (auto& term : m_pending) m_objective->add(std::move(term));
+      m_pending.clear();
       m_objective->finalize();
     }
   }

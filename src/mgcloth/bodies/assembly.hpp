@@ -61,10 +61,13 @@ class Assembly {
   std::vector<Index> m_offsets;  ///< per body, then the total
   std::unique_ptr<physics::Objective> m_objective;
   std::unique_ptr<Union> m_galerkin, m_rediscretized;
+  /// A term over all the bodies (contact, friction): in the one body's own objective, or the joint one (kept in
+  /// m_pending until that exists).
+  void add_coupling(std::unique_ptr<physics::Term> term);
+
   physics::ClothContact* m_contact = nullptr;
-  std::unique_ptr<physics::ClothContact> m_pending_contact;  ///< a coupling term until the joint objective exists
   physics::ClothFriction* m_friction = nullptr;
-  std::unique_ptr<physics::ClothFriction> m_pending_friction;
+  std::vector<std::unique_ptr<physics::Term>> m_pending;  ///< coupling terms until the joint objective exists
 };
 
 }  // namespace mgcloth::bodies
