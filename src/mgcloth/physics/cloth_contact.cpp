@@ -97,7 +97,7 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
     }
   }
   // Smaller margins rebuild more often but filter fewer candidates: on the layered drape (10K, 8 steps) δ = r/4 took
-  // 0.70× the time of δ = r, and δ = 3r 1.6×.
+  // 0.76× the time of δ = r, δ = r/2 0.91×, and δ = 3r 1.7× (bench/RESULTS.md).
   m_delta = 0.25 * m_max_r;
   m_broad = std::make_unique<collision::BroadPhase>(&m_topology);
 }
