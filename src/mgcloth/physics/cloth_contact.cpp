@@ -332,21 +332,32 @@ void ClothContact::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool proj
   }
 }
 
+void collect_stencil_pattern(const std::vector<std::array<Index, 4>>& stencils,
+                             std::vector<std::pair<Index, Index>>& pairs) {
+  for (const auto& s : stencils)
+    for (Index a : s)
+      for (Index b : s) pairs.emplace_back(a, b);
+}
+
+std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<Index, 4>>& stencils,
+                                                 const linalg::BlockMatrix3& pattern, const char* what) {
+  std::vector<std::array<Index, 16>> out(stencils.size());
+  for (size_t k = 0; k < stencils.size(); ++k)
+    for (size_t a = 0; a < 4; ++a)
+      for (size_t b = 0; b < 4; ++b) {
+        const Index slot = pattern.find(stencils[k][a], stencils[k][b]);
+        if (slot < 0) throw_error("{}: stencil block missing from the pattern", what);
+        out[k][4 * a + b] = slot;
+      }
+  return out;
+}
+
 void ClothContact::collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const {
-  for (const auto& s : m_stencils)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) pairs.emplace_back(s[a], s[b]);
+  collect_stencil_pattern(m_stencils, pairs);
 }
 
 void ClothContact::bind(const linalg::BlockMatrix3& pattern) {
-  m_slots.resize(m_stencils.size());
-  for (size_t k = 0; k < m_stencils.size(); ++k)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const Index slot = pattern.find(m_stencils[k][a], m_stencils[k][b]);
-        if (slot < 0) throw_error("cloth contact: stencil block missing from the pattern");
-        m_slots[k][4 * a + b] = slot;
-      }
+  m_slots = stencil_slots(m_stencils, pattern, "cloth contact");
 }
 
 std::vector<std::array<Index, 4>> ClothContact::stencils_at(const VecX& x) const {

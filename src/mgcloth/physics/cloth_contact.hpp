@@ -58,6 +58,14 @@ struct ContactStats {
   double min_distance = kInf;     ///< over the pairs within the candidates' reach (kInf: none)
 };
 
+/// The Hessian blocks of 4-point stencils (every ordered pair of a stencil's points), shared by the contact and
+/// friction terms.
+void collect_stencil_pattern(const std::vector<std::array<Index, 4>>& stencils,
+                             std::vector<std::pair<Index, Index>>& pairs);
+/// Per stencil, the positions of its 4×4 blocks in `pattern` (`what` names the term in the error of a missing block).
+std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<Index, 4>>& stencils,
+                                                 const linalg::BlockMatrix3& pattern, const char* what);
+
 /// Contact between the triangles of every surface and within each (self-contact): vertex–triangle and edge–edge
 /// pairs whose distance is below the layer r = (t_a + t_b)/2 carry the energy w·ψ(d) (ContactLayer) with
 /// w = stiffness × the pair's area (the vertex's lumped area; for an edge a third of its triangles' areas, the two

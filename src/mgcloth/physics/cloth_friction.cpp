@@ -117,20 +117,11 @@ std::vector<std::array<Index, 4>> ClothFriction::stencils() const {
 }
 
 void ClothFriction::collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const {
-  for (const auto& s : m_stencils)
-    for (Index a : s)
-      for (Index b : s) pairs.emplace_back(a, b);
+  collect_stencil_pattern(m_stencils, pairs);
 }
 
 void ClothFriction::bind(const linalg::BlockMatrix3& pattern) {
-  m_slots.resize(m_stencils.size());
-  for (size_t k = 0; k < m_stencils.size(); ++k)
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const Index slot = pattern.find(m_stencils[k][static_cast<size_t>(a)], m_stencils[k][static_cast<size_t>(b)]);
-        if (slot < 0) throw_error("cloth friction: stencil block missing from the pattern");
-        m_slots[k][static_cast<size_t>(4 * a + b)] = slot;
-      }
+  m_slots = stencil_slots(m_stencils, pattern, "cloth friction");
 }
 
 bool ClothFriction::update_stencils(const VecX& /*x*/) {
