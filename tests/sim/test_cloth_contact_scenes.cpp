@@ -37,6 +37,11 @@ void run_checked(sim::Simulator& s, int frames) {
       ASSERT_EQ(st.intersections, 0) << "frame " << f + 1 << " step " << st.step;
       ASSERT_GE(st.contact_pairs, 0);
       ASSERT_GT(st.min_distance, 0.0) << "frame " << f + 1;
+      // Detection runs in every step (at least the cache at its start) and is part of the step's time.
+      ASSERT_GT(st.contact_detection_ms, 0.0);
+      ASSERT_LE(st.contact_detection_ms, st.wall_ms);
+      ASSERT_GE(st.check_ms, 0.0);
+      ASSERT_LE(st.check_ms, st.wall_ms);
     }
     const auto& group = s.group(0);
     ASSERT_TRUE(group.cloth_contact());

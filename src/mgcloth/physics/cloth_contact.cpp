@@ -3,6 +3,7 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
+#include <mgcloth/core/timer.hpp>
 #include <mgcloth/physics/cloth_contact.hpp>
 #include <mgcloth/physics/psd.hpp>
 
@@ -191,6 +192,7 @@ void ClothContact::ensure_near(const VecX& x) const {
 
 void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
   logger().debug("cloth contact: near pairs rebuilt{}", step ? " along a step" : "");
+  const Timer timer;
   // The cache lives in a frame that moves with the step's mean displacement c̄ (a stack of cloths falling together
   // moves far in world space but little relative to itself), where each point moves along s_i − c̄.
   VecX rel = VecX::Zero(x.size());
@@ -253,6 +255,7 @@ void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
   m_near_base = x;
   m_near_step = std::move(rel);
   ++m_near_generation;
+  m_times.broad_phase_ms += timer.ms();
 }
 
 double ClothContact::lower_bound_distance(const Pair& p, const VecX& x) const {
@@ -276,6 +279,7 @@ double ClothContact::lower_bound_distance(const Pair& p, const VecX& x) const {
 const std::vector<double>& ClothContact::near_distances(const VecX& x) const {
   ensure_near(x);
   if (m_eval_generation == m_near_generation && m_eval_x.size() == x.size() && m_eval_x == x) return m_eval_d;
+  const Timer timer;
   m_eval_d.resize(m_near.size());
   parallel_for(static_cast<Index>(m_near.size()), [&](Index k) {
     const Pair& p = m_near[static_cast<size_t>(k)];
@@ -285,6 +289,7 @@ const std::vector<double>& ClothContact::near_distances(const VecX& x) const {
   });
   m_eval_x = x;
   m_eval_generation = m_near_generation;
+  m_times.distances_ms += timer.ms();
   return m_eval_d;
 }
 
@@ -409,6 +414,7 @@ double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) co
   if (!valid || (step.reshaped(3, m_n).colwise().squaredNorm().maxCoeff() > small * small && !near_valid(x + step)))
     rebuild_near(x, &step);
   // Material-space neighbours carry no energy but must not pass through each other either.
+  const Timer timer;
   const size_t nn = m_near.size();
   std::vector<double> t(nn + m_near_neighbours.size(), 1.0);
   parallel_for(static_cast<Index>(t.size()), [&](Index k) {
@@ -419,6 +425,7 @@ double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) co
     t[j] = p.edge_edge ? collision::edge_edge_ccd(a(0), a(1), a(2), a(3), da(0), da(1), da(2), da(3), s, 1.0)
                        : collision::point_triangle_ccd(a(0), a(1), a(2), a(3), da(0), da(1), da(2), da(3), s, 1.0);
   });
+  m_times.ccd_ms += timer.ms();
   return alpha_max * (t.empty() ? 1.0 : *std::min_element(t.begin(), t.end()));
 }
 

@@ -58,6 +58,16 @@ struct ContactStats {
   double min_distance = kInf;     ///< over the pairs within the candidates' reach (kInf: none)
 };
 
+/// Where the contact term's collision detection spent its time since the last take_times() (ms): broad phase with
+/// the exact distances of its candidates (cache rebuilds), the distances of cached pairs per iterate, and continuous
+/// collision detection of the cached pairs along steps. The energy, gradient and Hessian of the pairs are not in it.
+struct ContactTimes {
+  double broad_phase_ms = 0.0;
+  double distances_ms = 0.0;
+  double ccd_ms = 0.0;
+  double detection_ms() const { return broad_phase_ms + distances_ms + ccd_ms; }
+};
+
 /// The Hessian blocks of 4-point stencils (every ordered pair of a stencil's points), shared by the contact and
 /// friction terms.
 void collect_stencil_pattern(const std::vector<std::array<Index, 4>>& stencils,
@@ -111,6 +121,12 @@ class ClothContact final : public Term {
   /// follows the iterates with hysteresis, but every step starts from a pattern that depends on its start point
   /// only, so a run resumed from a checkpoint assembles on the same patterns as the uninterrupted one.
   void start_step(const VecX& x);
+  /// The detection times accumulated since the last call, which resets them.
+  ContactTimes take_times() const {
+    const ContactTimes t = m_times;
+    m_times = {};
+    return t;
+  }
 
  private:
   struct Pair {
@@ -158,6 +174,7 @@ class ClothContact final : public Term {
   mutable VecX m_eval_x;                        ///< the point of m_eval_d
   mutable std::vector<double> m_eval_d;         ///< near_distances(m_eval_x)
   mutable std::uint64_t m_eval_generation = ~std::uint64_t{0};
+  mutable ContactTimes m_times;
   double m_delta = 0.0;      ///< δ of the cache
 
   std::vector<std::array<Index, 4>> m_stencils;  ///< sorted, the pattern's contact stencils

@@ -234,6 +234,7 @@ std::vector<StepStats> Simulator::step() {
     solvers::NonlinearSolver& solver = *m_solvers[g];
     StepStats s;
     VecX x;
+    if (const physics::ClothContact* contact = group.cloth_contact()) contact->take_times();
     solvers::Problem problem = prepare_problem(g, x, &s.load_factor);
     try {
       s.report = building(
@@ -258,10 +259,13 @@ std::vector<StepStats> Simulator::step() {
       const physics::ContactStats cs = contact->stats(end);
       s.contact_pairs = cs.pairs;
       s.min_distance = cs.min_distance;
+      s.contact_detection_ms = contact->take_times().detection_ms();
       if (m_scene.cloth_contact.check_intersections) {
+        const Timer check;
         size_t count = 0;
         collision::find_intersections(end, contact->triangles(), 0, &count);
         s.intersections = static_cast<Index>(count);
+        s.check_ms = check.ms();
       }
     }
     std::vector<std::string> names;

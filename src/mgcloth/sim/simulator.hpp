@@ -31,6 +31,10 @@ struct StepStats {
   Index contact_pairs = -1;
   double min_distance = std::numeric_limits<double>::quiet_NaN();
   Index intersections = -1;
+  /// With cloth contact: the step's time in contact detection (ContactTimes: broad phase, distances of cached pairs,
+  /// continuous collision detection), and in the exact intersection checker (NaN: not run), ms.
+  double contact_detection_ms = std::numeric_limits<double>::quiet_NaN();
+  double check_ms = std::numeric_limits<double>::quiet_NaN();
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
