@@ -7,10 +7,14 @@
 #include "cli_run.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -72,6 +76,59 @@ TEST_P(Resume, ASolverStateOfAnotherKindIsRefused) {
   EXPECT_NE(r.out.find("checkpoint.bin: cloth \"sheet\": "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("solver state"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out / "frame_00003.obj"));
+}
+
+// A run started by an older mgcloth, whose stats.csv lacked columns added since, resumes into one table: the old
+// rows are rewritten under the new header by column name, the columns they lacked left empty.
+class ResumeOlderStats : public mgcloth::test::TempDirTest {
+ protected:
+  ResumeOlderStats() : TempDirTest("mgcloth_resume_old_") {}
+};
+
+TEST_F(ResumeOlderStats, RowsOfAnOlderHeaderAreMappedByColumnName) {
+  std::ofstream(dir / "scene.json") << R"({ "frames": 3, "cloths": [ { "name": "sheet", "mesh": {
+      "generator": "rectangle", "vertices": 200 }, "pins": [ { "points": [[0, 1], [1, 1]] } ] } ],
+      "solver": { "name": "fmg", "rel_grad": 1e-3 } })";
+  const fs::path out = dir / "out";
+  auto r = mgcloth::test::run_cli("run " + (dir / "scene.json").string() + " -q --threads 1 --frames 2 --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto lines = [](const fs::path& f) {
+    std::vector<std::string> v;
+    std::ifstream in(f);
+    for (std::string l; std::getline(in, l);) v.push_back(l);
+    return v;
+  };
+  const auto cells = [](const std::string& s) {
+    std::vector<std::string> v;
+    std::stringstream in(s);
+    for (std::string c; std::getline(in, c, ',');) v.push_back(c);
+    if (!s.empty() && s.back() == ',') v.push_back("");
+    return v;
+  };
+  const auto before = lines(out / "stats.csv");
+  ASSERT_EQ(before.size(), 3u);
+  const auto header = cells(before[0]);
+  // The older file: without the last column, and with the first two swapped.
+  {
+    std::ofstream o(out / "stats.csv");
+    for (const auto& l : before) {
+      auto c = cells(l);
+      c.pop_back();
+      std::swap(c[0], c[2]);
+      o << fmt::format("{}\n", fmt::join(c, ","));
+    }
+  }
+  r = mgcloth::test::run_cli("run " + (dir / "scene.json").string() + " -q --threads 1 --resume --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto after = lines(out / "stats.csv");
+  ASSERT_EQ(after.size(), 4u);
+  EXPECT_EQ(after[0], before[0]);
+  for (size_t i = 1; i < after.size(); ++i) EXPECT_EQ(cells(after[i]).size(), header.size()) << after[i];
+  for (size_t i = 1; i < 3; ++i) {
+    auto expected = cells(before[i]);
+    expected.back() = "";
+    EXPECT_EQ(cells(after[i]), expected);
+  }
 }
 
 // Each solver kind that carries state across steps (each of these differed before its state was checkpointed), and

@@ -292,6 +292,23 @@ void Recorder::CsvLog::load_up_to_step(const fs::path& dir, long step) {
   std::ifstream in(dir / name);
   std::string line;
   std::getline(in, line);
+  // A run started by an older mgcloth may have other columns: its rows are rewritten under this header by column
+  // name, with the columns it did not have left empty, so that the file stays one table.
+  const auto split = [](const std::string& s) {
+    std::vector<std::string> cells;
+    std::size_t a = 0;
+    for (std::size_t b; (b = s.find(',', a)) != std::string::npos; a = b + 1) cells.push_back(s.substr(a, b - a));
+    cells.push_back(s.substr(a));
+    return cells;
+  };
+  std::vector<int> source;  // for each column of `header`, its index in the file's header (−1: absent)
+  if (!line.empty() && line != header) {
+    const auto old_cols = split(line);
+    for (const auto& c : split(header)) {
+      const auto it = std::find(old_cols.begin(), old_cols.end(), c);
+      source.push_back(it == old_cols.end() ? -1 : static_cast<int>(it - old_cols.begin()));
+    }
+  }
   while (std::getline(in, line)) {
     // Rows past the checkpoint's step belong to the interrupted part.
     std::size_t start = 0;
@@ -300,7 +317,18 @@ void Recorder::CsvLog::load_up_to_step(const fs::path& dir, long step) {
       if (start != std::string::npos) ++start;
     }
     if (line.empty() || start == std::string::npos) continue;
-    if (std::stol(line.substr(start)) <= step) rows.push_back(line);
+    if (std::stol(line.substr(start)) > step) continue;
+    if (source.empty()) {
+      rows.push_back(line);
+      continue;
+    }
+    const auto cells = split(line);
+    std::string row;
+    for (size_t c = 0; c < source.size(); ++c) {
+      if (c) row += ',';
+      if (source[c] >= 0 && static_cast<size_t>(source[c]) < cells.size()) row += cells[source[c]];
+    }
+    rows.push_back(std::move(row));
   }
 }
 
