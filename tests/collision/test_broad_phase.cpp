@@ -129,9 +129,35 @@ void check_against_brute_force(const SurfaceTopology& s, const VecX& x, const Ve
     ASSERT_FALSE(want.vertex_triangle.empty());
     ASSERT_FALSE(want.edge_edge.empty());
     bp.find_swept(x, d, inflate, got);
-    expect_same(got, swept_brute_force(s, x, d, inflate));
+    const Candidates swept = swept_brute_force(s, x, d, inflate);
+    expect_same(got, swept);
     // The swept boxes hold the static ones, so they can only add pairs.
     EXPECT_GE(got.vertex_triangle.size(), want.vertex_triangle.size());
+    // The pairs that touch a marked point, static and swept, for a few points and for many.
+    for (int every : {37, 3}) {
+      SCOPED_TRACE(::testing::Message() << "every " << every << "th point marked");
+      std::vector<char> marked(static_cast<size_t>(x.size() / 3), 0);
+      for (size_t p = 0; p < marked.size(); p += static_cast<size_t>(every)) marked[p] = 1;
+      const auto touching = [&](const Candidates& c) {
+        Candidates out;
+        for (const auto& [v, t] : c.vertex_triangle) {
+          const Tri& tri = s.triangles[t];
+          if (marked[s.vertices[v]] || marked[tri[0]] || marked[tri[1]] || marked[tri[2]])
+            out.vertex_triangle.push_back({v, t});
+        }
+        for (const auto& [a, b] : c.edge_edge)
+          if (marked[s.edges[a][0]] || marked[s.edges[a][1]] || marked[s.edges[b][0]] || marked[s.edges[b][1]])
+            out.edge_edge.push_back({a, b});
+        return out;
+      };
+      const Candidates want_static = touching(want), want_swept = touching(swept);
+      ASSERT_FALSE(want_static.vertex_triangle.empty());
+      ASSERT_LT(want_static.edge_edge.size(), want.edge_edge.size());
+      bp.find_touching(x, nullptr, inflate, marked, got);
+      expect_same(got, want_static);
+      bp.find_touching(x, &d, inflate, marked, got);
+      expect_same(got, want_swept);
+    }
   }
 }
 
@@ -205,7 +231,7 @@ TEST(BroadPhase, MatchesBruteForceOnRandomSoups) {
   for (double size : {0.02, 0.08}) {
     const Soup soup = random_soup(400, size, rng);
     const SurfaceTopology s = make_surface_topology(soup.triangles);
-    VecX d(soup.x.size());
+    VecX d = VecX::Zero(soup.x.size());
     displace(d, 0.05, rng);
     check_against_brute_force(s, soup.x, d, {0.0, 1e-3, 0.01, 0.05});
   }
@@ -216,7 +242,7 @@ TEST(BroadPhase, MatchesBruteForceOnACrumpledAndAFoldedSheet) {
   const Index n = 24;
   const double h = 1.0 / (n - 1);
   const SurfaceTopology s = make_surface_topology(grid_triangles(n, n));
-  VecX d(3 * n * n);
+  VecX d = VecX::Zero(3 * n * n);
   displace(d, 0.5 * h, rng);
   {
     SCOPED_TRACE("crumpled");
@@ -238,7 +264,7 @@ TEST(BroadPhase, SameListForOneAndTwoThreads) {
   const Index n = 60;  // 3600 vertices: several chunks of queries per thread
   const double h = 1.0 / (n - 1);
   const SurfaceTopology s = make_surface_topology(grid_triangles(n, n));
-  VecX x = folded_grid(n, n, n / 2, h, 0.3 * h), d(3 * n * n);
+  VecX x = folded_grid(n, n, n / 2, h, 0.3 * h), d = VecX::Zero(3 * n * n);
   displace(x, 0.5 * h, rng);
   displace(d, h, rng);
   Candidates one, two, swept_one, swept_two;

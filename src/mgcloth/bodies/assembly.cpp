@@ -88,6 +88,7 @@ VecX Assembly::prepare_step(const StepTime& step) {
   if (m_contact) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
     const VecX d = out - from;
+    m_contact->reset_near();
     out = from + objective().max_step(from, d, 1.0) * d;
     m_contact->start_step(out);
     // Friction is lagged at the state the step starts from, so that u/h is the relative tangential velocity.

@@ -217,6 +217,9 @@ double Bvh::total_surface_area() const {
 
 BroadPhase::BroadPhase(const SurfaceTopology* surface) : m_surface(surface) {
   if (!surface) throw_error("BroadPhase: no surface");
+  const Index points = surface->vertices.empty() ? 0 : surface->vertices.back() + 1;
+  m_vertex_of_point.assign(static_cast<size_t>(points), -1);
+  for (size_t v = 0; v < surface->vertices.size(); ++v) m_vertex_of_point[surface->vertices[v]] = static_cast<Index>(v);
 }
 
 void BroadPhase::find(const VecX& x, double inflate, Candidates& out) {
@@ -263,12 +266,80 @@ void BroadPhase::update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& 
 }
 
 template <class PointBox>
-void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates& out) {
-  const SurfaceTopology& s = *m_surface;
-  make_boxes(s, point_box, inflate, m_triangle_boxes, m_edge_boxes, m_vertex_boxes);
+void BroadPhase::update_trees(const PointBox& point_box, double inflate) {
+  make_boxes(*m_surface, point_box, inflate, m_triangle_boxes, m_edge_boxes, m_vertex_boxes);
   const bool fresh = m_builds == 0;
   update_tree(m_triangle_boxes, m_triangles, m_triangle_area_at_build, fresh);
   update_tree(m_edge_boxes, m_edges, m_edge_area_at_build, fresh);
+}
+
+void BroadPhase::find_touching(const VecX& x, const VecX* d, double inflate, const std::vector<char>& marked,
+                               Candidates& out) {
+  const SurfaceTopology& s = *m_surface;
+  check_input(s, x, inflate);
+  if (d) {
+    if (d->size() != x.size())
+      throw_error("broad phase: the displacement has {} entries, the positions {}", d->size(), x.size());
+    check_input(s, *d, inflate, "displacement");
+  }
+  if (static_cast<Index>(marked.size()) * 3 != x.size())
+    throw_error("broad phase: {} marks for {} points", marked.size(), x.size() / 3);
+  update_trees(
+      [&](Index p) {
+        const Vec3 a = vertex(x, p), b = d ? Vec3(a + vertex(*d, p)) : a;
+        Aabb box;
+        box.lo = a.cwiseMin(b);
+        box.hi = a.cwiseMax(b);
+        return box;
+      },
+      inflate);
+  const auto is_marked = [&](Index p) { return marked[static_cast<size_t>(p)] != 0; };
+  std::vector<Index> verts, tris, edges;
+  for (Index v = 0; v < static_cast<Index>(s.vertices.size()); ++v)
+    if (is_marked(s.vertices[v])) verts.push_back(v);
+  for (Index t = 0; t < static_cast<Index>(s.triangles.size()); ++t)
+    if (is_marked(s.triangles[t][0]) || is_marked(s.triangles[t][1]) || is_marked(s.triangles[t][2])) tris.push_back(t);
+  for (Index e = 0; e < static_cast<Index>(s.edges.size()); ++e)
+    if (is_marked(s.edges[e][0]) || is_marked(s.edges[e][1])) edges.push_back(e);
+  // Vertex–triangle pairs from the marked vertices' side and from the marked triangles' side. A vertex's box lies in
+  // the box of each triangle it belongs to, so the vertices near a triangle are among those of the triangles its box
+  // overlaps.
+  const Index nv = static_cast<Index>(verts.size());
+  gather_pairs(nv + static_cast<Index>(tris.size()), m_chunks, m_unordered, [&](Index i, std::vector<Pair>& pairs) {
+    if (i < nv) {
+      const Index v = verts[i], p = s.vertices[v];
+      m_triangles.query(m_vertex_boxes[v], [&](Index t) {
+        if (!has_point(s.triangles[t], p)) pairs.push_back({v, t});
+      });
+      return;
+    }
+    const Index t = tris[i - nv];
+    const Aabb& box = m_triangle_boxes[t];
+    m_triangles.query(box, [&](Index u) {
+      for (Index p : s.triangles[u]) {
+        const Index v = m_vertex_of_point[p];
+        if (!has_point(s.triangles[t], p) && m_vertex_boxes[v].overlaps(box)) pairs.push_back({v, t});
+      }
+    });
+  });
+  std::sort(m_unordered.begin(), m_unordered.end());
+  m_unordered.erase(std::unique(m_unordered.begin(), m_unordered.end()), m_unordered.end());
+  out.vertex_triangle.swap(m_unordered);
+  gather_pairs(static_cast<Index>(edges.size()), m_chunks, m_unordered, [&](Index i, std::vector<Pair>& pairs) {
+    const Index a = edges[i];
+    m_edges.query(m_edge_boxes[a], [&](Index b) {
+      if (!share_end(s.edges[a], s.edges[b])) pairs.push_back({std::min(a, b), std::max(a, b)});
+    });
+  });
+  std::sort(m_unordered.begin(), m_unordered.end());
+  m_unordered.erase(std::unique(m_unordered.begin(), m_unordered.end()), m_unordered.end());
+  out.edge_edge.swap(m_unordered);
+}
+
+template <class PointBox>
+void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates& out) {
+  const SurfaceTopology& s = *m_surface;
+  update_trees(point_box, inflate);
   gather_pairs(static_cast<Index>(s.vertices.size()), m_chunks, out.vertex_triangle,
                [&](Index v, std::vector<Pair>& pairs) {
                  const Index p = s.vertices[v];

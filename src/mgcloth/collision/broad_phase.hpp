@@ -123,6 +123,10 @@ class BroadPhase {
   /// Pairs whose boxes swept from x to x + d (each grown by `inflate`) overlap: every pair that can come within
   /// 2·inflate of each other while the points move linearly.
   void find_swept(const VecX& x, const VecX& d, double inflate, Candidates& out);
+  /// The pairs of find_swept (find when d is null) that have a point p with marked[p] != 0, ascending: what a local
+  /// update of a pair cache needs when only those points moved. The trees hold every primitive's box (refit or
+  /// rebuilt as in find), but only the marked points' primitives are queried, so the cost follows their count.
+  void find_touching(const VecX& x, const VecX* d, double inflate, const std::vector<char>& marked, Candidates& out);
   /// How many times a tree was built (the first call builds both): for tests and statistics.
   Index builds() const { return m_builds; }
 
@@ -134,6 +138,8 @@ class BroadPhase {
  private:
   template <class PointBox>
   void find_with(const PointBox& point_box, double inflate, Candidates& out);
+  template <class PointBox>
+  void update_trees(const PointBox& point_box, double inflate);
   void update_tree(const std::vector<Aabb>& boxes, Bvh& tree, double& area_at_build, bool fresh);
 
   const SurfaceTopology* m_surface;
@@ -142,6 +148,7 @@ class BroadPhase {
   double m_triangle_area_at_build = 0.0, m_edge_area_at_build = 0.0;
   std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results, kept for their capacity
   std::vector<std::array<Index, 2>> m_unordered;             ///< edge pairs before sort_pairs
+  std::vector<Index> m_vertex_of_point;                      ///< per point, its index in vertices (-1: none)
   Index m_builds = 0;
   double m_rebuild_growth = kRebuildGrowth;
 };

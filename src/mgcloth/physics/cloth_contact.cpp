@@ -168,8 +168,7 @@ double ClothContact::pair_energy(const Pair& p, const VecX& x, Vec12* g, Mat12* 
   return psi;
 }
 
-bool ClothContact::near_valid(const VecX& x) const {
-  if (m_near_base.size() != x.size()) return false;
+std::vector<Index> ClothContact::escaped(const VecX& x, Vec3& c, double& t) const {
   // The cache covers x when x_i = x_b,i + c + t·s_i + e_i with |e_i| <= δ for one translation c and one t in [0, 1]
   // (s the cache's step less its mean). Distances do not change under a common translation, and with one t a pair
   // moves only by the differences of its points' steps. c is the mean displacement and t the least-squares fit, which
@@ -177,17 +176,55 @@ bool ClothContact::near_valid(const VecX& x) const {
   const auto X = as_columns(x);
   const auto B = as_columns(static_cast<const VecX&>(m_near_base));
   const auto S = as_columns(static_cast<const VecX&>(m_near_step));
-  const Vec3 c = (X - B).rowwise().mean();
+  c = (X - B).rowwise().mean();
   const double ss = m_near_step.squaredNorm();
-  const double t = ss > 0.0 ? std::clamp(((X - B).colwise() - c).cwiseProduct(S).sum() / ss, 0.0, 1.0) : 0.0;
+  t = ss > 0.0 ? std::clamp(((X - B).colwise() - c).cwiseProduct(S).sum() / ss, 0.0, 1.0) : 0.0;
+  std::vector<Index> out;
   for (Index i = 0; i < m_n; ++i)
-    if ((X.col(i) - B.col(i) - c - t * S.col(i)).squaredNorm() > m_delta * m_delta) return false;
-  return true;
+    if ((X.col(i) - B.col(i) - c - t * S.col(i)).squaredNorm() > m_delta * m_delta) out.push_back(i);
+  return out;
+}
+
+bool ClothContact::near_valid(const VecX& x) const {
+  if (m_near_base.size() != x.size()) return false;
+  Vec3 c;
+  double t;
+  return escaped(x, c, t).empty();
 }
 
 void ClothContact::ensure_near(const VecX& x) const {
   if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
-  if (!near_valid(x)) rebuild_near(x, nullptr);
+  if (m_near_base.size() != x.size()) return rebuild_near(x, nullptr);
+  Vec3 c;
+  double t;
+  const std::vector<Index> out = escaped(x, c, t);
+  if (out.empty()) return;
+  if (static_cast<double>(out.size()) > kLocalUpdateFraction * static_cast<double>(m_n)) return rebuild_near(x, nullptr);
+  update_near(x, out, c, t);
+}
+
+void ClothContact::update_near(const VecX& x, const std::vector<Index>& moved, const Vec3& c, double t) const {
+  logger().debug("cloth contact: near pairs of {} points updated", moved.size());
+  const Timer timer;
+  // Each escaped point gets a new base, where it is now in the cache's frame; pairs of points that kept theirs keep
+  // their guarantee, and the pairs of the others are found again at the new bases.
+  auto B = as_columns(m_near_base);
+  const auto S = as_columns(static_cast<const VecX&>(m_near_step));
+  const auto X = as_columns(x);
+  std::vector<char> mark(static_cast<size_t>(m_n), 0);
+  for (Index i : moved) {
+    B.col(i) = X.col(i) - c - t * S.col(i);
+    mark[static_cast<size_t>(i)] = 1;
+  }
+  const auto touches = [&](const Pair& p) {
+    return mark[p.v[0]] || mark[p.v[1]] || mark[p.v[2]] || mark[p.v[3]];
+  };
+  std::erase_if(m_near, touches);
+  std::erase_if(m_near_neighbours, touches);
+  m_broad->find_touching(m_near_base, &m_near_step, 0.5 * m_max_r + m_delta, mark, m_candidates);
+  add_near_pairs(m_near_base, m_near_step);
+  ++m_near_generation;
+  m_times.broad_phase_ms += timer.ms();
 }
 
 void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
@@ -208,34 +245,51 @@ void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
     m_broad->find_swept(x, rel, grow, m_candidates);
   else
     m_broad->find(x, grow, m_candidates);
-  const auto& vt = m_candidates.vertex_triangle;
-  const auto& ee = m_candidates.edge_edge;
-  const Index nvt = static_cast<Index>(vt.size()), nee = static_cast<Index>(ee.size());
+  m_near.clear();
+  m_near_neighbours.clear();
+  add_near_pairs(x, rel);
+  m_near_base = x;
+  m_near_step = std::move(rel);
+  ++m_near_generation;
+  m_times.broad_phase_ms += timer.ms();
+}
+
+ClothContact::Pair ClothContact::candidate_pair(const collision::Candidates& c, Index k) const {
+  Pair p;
+  const Index nvt = static_cast<Index>(c.vertex_triangle.size());
+  if (k < nvt) {
+    const Index v = m_topology.vertices[c.vertex_triangle[k][0]];
+    const Tri& t = m_topology.triangles[c.vertex_triangle[k][1]];
+    p.v = {v, t[0], t[1], t[2]};
+    p.edge_edge = false;
+    p.weight = m_params.stiffness * m_point_area[v];
+    p.r = 0.5 * (m_point_r[v] + m_point_r[t[0]]);
+  } else {
+    const auto& [ea, eb] = c.edge_edge[k - nvt];
+    const auto& A = m_topology.edges[ea];
+    const auto& B = m_topology.edges[eb];
+    p.v = {A[0], A[1], B[0], B[1]};
+    p.edge_edge = true;
+    p.weight = m_params.stiffness * 0.5 * (m_edge_area[ea] + m_edge_area[eb]);
+    p.r = 0.5 * (m_point_r[A[0]] + m_point_r[B[0]]);
+  }
+  return p;
+}
+
+void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
+  const Index nvt = static_cast<Index>(m_candidates.vertex_triangle.size());
+  const Index nee = static_cast<Index>(m_candidates.edge_edge.size());
   std::vector<Pair> all(static_cast<size_t>(nvt + nee));
   std::vector<char> keep(all.size(), 0);
+  const bool moving = rel.squaredNorm() > 0.0;
   parallel_for(nvt + nee, [&](Index k) {
     Pair& p = all[static_cast<size_t>(k)];
-    if (k < nvt) {
-      const Index v = m_topology.vertices[vt[k][0]];
-      const Tri& t = m_topology.triangles[vt[k][1]];
-      p.v = {v, t[0], t[1], t[2]};
-      p.edge_edge = false;
-      p.weight = m_params.stiffness * m_point_area[v];
-      p.r = 0.5 * (m_point_r[v] + m_point_r[t[0]]);
-    } else {
-      const auto& [ea, eb] = ee[k - nvt];
-      const auto& A = m_topology.edges[ea];
-      const auto& B = m_topology.edges[eb];
-      p.v = {A[0], A[1], B[0], B[1]};
-      p.edge_edge = true;
-      p.weight = m_params.stiffness * 0.5 * (m_edge_area[ea] + m_edge_area[eb]);
-      p.r = 0.5 * (m_point_r[A[0]] + m_point_r[B[0]]);
-    }
+    p = candidate_pair(m_candidates, k);
     // At a covered point, relative to the pair's first point, each point i has moved by t(s_i − s_0) + e_i, so each
     // side's distance drops by at most its largest |s_i − s_0| plus δ.
     const int split = p.edge_edge ? 2 : 1;
     double ma = 0.0, mb = 0.0;
-    if (step) {
+    if (moving) {
       const Vec3 s0 = at(rel, p.v[0]);
       for (int i = 1; i < 4; ++i) {
         const double m = (at(rel, p.v[i]) - s0).norm();
@@ -246,16 +300,10 @@ void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
     if (lower_bound_distance(p, x) >= reach || distance(p, x) >= reach) return;
     keep[static_cast<size_t>(k)] = same_surface_neighbours(p) ? 2 : 1;
   });
-  m_near.clear();
-  m_near_neighbours.clear();
   for (size_t k = 0; k < all.size(); ++k) {
     if (keep[k] == 1) m_near.push_back(all[k]);
     if (keep[k] == 2) m_near_neighbours.push_back(all[k]);
   }
-  m_near_base = x;
-  m_near_step = std::move(rel);
-  ++m_near_generation;
-  m_times.broad_phase_ms += timer.ms();
 }
 
 double ClothContact::lower_bound_distance(const Pair& p, const VecX& x) const {
@@ -404,22 +452,63 @@ double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) co
   if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
   const VecX step = alpha_max * d;
   const double s = m_params.ccd_separation;
-  // With the cache valid at x, a pair outside it is at least its layer r apart. While no point moves more than
-  // (1 − s)·r_min/2, no such pair closes to s times its distance: only the cached pairs need collision detection.
-  // Otherwise the cache is rebuilt along the step: its pairs are then every pair that can come within r anywhere on
-  // it (so the line search's trial points on it need no rebuild), a superset of those that can collide.
-  // The cache also covers the whole step when it covers both of its ends, since the points it covers form a convex set.
+  // With the cache valid at x, a pair outside it is at least its layer r apart. Distances ignore the step's mean
+  // c̄, and while no point moves more than (1 − s)·r_min/2 relative to it, no such pair closes to s times its
+  // distance: only the cached pairs need collision detection. The cache also covers the whole step when it covers
+  // both of its ends, since the points it covers form a convex set. Otherwise, when many points move that far, the
+  // cache is rebuilt along the step: its pairs are then every pair that can come within r anywhere on it (so the
+  // line search's trial points on it need no rebuild), a superset of those that can collide. When few do, only the
+  // pairs of those few are found along the step, for the collision detection alone; trial points then update the
+  // cache locally.
   const double small = 0.5 * (1.0 - s) * m_min_r;
-  const bool valid = near_valid(x);
-  if (!valid || (step.reshaped(3, m_n).colwise().squaredNorm().maxCoeff() > small * small && !near_valid(x + step)))
-    rebuild_near(x, &step);
+  VecX rel = step;
+  as_columns(rel).colwise() -= as_columns(step).rowwise().mean();
+  std::vector<char> fast(static_cast<size_t>(m_n), 0);
+  Index fast_count = 0;
+  for (Index i = 0; i < m_n; ++i)
+    if (rel.segment<3>(3 * i).squaredNorm() > small * small) {
+      fast[static_cast<size_t>(i)] = 1;
+      ++fast_count;
+    }
+  std::vector<Pair> extra;
+  const bool covered = fast_count == 0 ? (ensure_near(x), true) : near_valid(x) && near_valid(x + step);
+  if (!covered) {
+    if (static_cast<double>(fast_count) > kLocalUpdateFraction * static_cast<double>(m_n)) {
+      rebuild_near(x, &step);
+    } else {
+      ensure_near(x);
+      const Timer timer;
+      collision::Candidates swept;
+      m_broad->find_touching(x, &rel, 0.5 * s * m_max_r, fast, swept);
+      const Index nvt = static_cast<Index>(swept.vertex_triangle.size());
+      const Index total = nvt + static_cast<Index>(swept.edge_edge.size());
+      std::vector<char> need(static_cast<size_t>(total), 0);
+      std::vector<Pair> all(static_cast<size_t>(total));
+      parallel_for(total, [&](Index k) {
+        Pair& p = all[static_cast<size_t>(k)];
+        p = candidate_pair(swept, k);
+        // Pairs that cannot close to s times their distance need no collision detection.
+        const int split = p.edge_edge ? 2 : 1;
+        double ma = 0.0, mb = 0.0;
+        const Vec3 s0 = at(rel, p.v[0]);
+        for (int i = 1; i < 4; ++i) {
+          const double m = (at(rel, p.v[i]) - s0).norm();
+          (i < split ? ma : mb) = std::max(i < split ? ma : mb, m);
+        }
+        need[static_cast<size_t>(k)] = (1.0 - s) * distance(p, x) <= ma + mb;
+      });
+      for (size_t k = 0; k < all.size(); ++k)
+        if (need[k]) extra.push_back(all[k]);
+      m_times.broad_phase_ms += timer.ms();
+    }
+  }
   // Material-space neighbours carry no energy but must not pass through each other either.
   const Timer timer;
-  const size_t nn = m_near.size();
-  std::vector<double> t(nn + m_near_neighbours.size(), 1.0);
+  const size_t nn = m_near.size(), nb = m_near_neighbours.size();
+  std::vector<double> t(nn + nb + extra.size(), 1.0);
   parallel_for(static_cast<Index>(t.size()), [&](Index k) {
     const size_t j = static_cast<size_t>(k);
-    const Pair& p = j < nn ? m_near[j] : m_near_neighbours[j - nn];
+    const Pair& p = j < nn ? m_near[j] : j < nn + nb ? m_near_neighbours[j - nn] : extra[j - nn - nb];
     const auto a = [&](int i) { return at(x, p.v[i]); };
     const auto da = [&](int i) { return at(step, p.v[i]); };
     t[j] = p.edge_edge ? collision::edge_edge_ccd(a(0), a(1), a(2), a(3), da(0), da(1), da(2), da(3), s, 1.0)

@@ -88,11 +88,15 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 ///
 /// The pairs near a point are cached: a rebuild at x_b finds every pair within r + 2δ (broad phase, then exact
 /// distances), which holds every pair inside the layer at any x whose points all lie within δ of x_b after one common
-/// translation (distances ignore it); farther points rebuild. max_step() builds the cache along its step x_b + [0, 1]·s
-/// instead, in a frame moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below
-/// r + 2δ plus how far its own points move relative to each other), so that the trial points of the line search that
-/// follows all find it valid, and a stack of cloths falling together does not sweep everything it passes. A step
-/// whose two ends the cache covers needs no rebuild: the points it covers form a convex set. The Hessian's stencils
+/// translation (distances ignore it). When only a few points are farther (at most kLocalUpdateFraction of them), those
+/// alone get new bases and their pairs are searched again (BroadPhase::find_touching): the other pairs keep their
+/// guarantee, and a cloth at rest whose edge flutters does not pay for a whole search. Otherwise the cache is
+/// rebuilt. When many points move far, max_step() builds the cache along its step x_b + [0, 1]·s instead, in a frame
+/// moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below r + 2δ plus how far
+/// its own points move relative to each other), so that the trial points of the line search that follows all find it
+/// valid, and a stack of cloths falling together does not sweep everything it passes; when few do, it searches only
+/// their pairs along the step, for collision detection. A step whose two ends the cache covers needs neither: the
+/// points it covers form a convex set. Every step starts from a fresh cache (reset_near). The Hessian's stencils
 /// are the pairs within r + δ at the last change, kept until a pair inside the layer is missing from them, so the
 /// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
 class ClothContact final : public Term {
@@ -121,6 +125,9 @@ class ClothContact final : public Term {
   /// follows the iterates with hysteresis, but every step starts from a pattern that depends on its start point
   /// only, so a run resumed from a checkpoint assembles on the same patterns as the uninterrupted one.
   void start_step(const VecX& x);
+  /// Drops the cache of near pairs, which local updates make depend on the iterates since its last rebuild: a step
+  /// that starts from a fresh one sees the same pairs whether the run was resumed before it or not.
+  void reset_near() { m_near_base.resize(0); }
   /// The detection times accumulated since the last call, which resets them.
   ContactTimes take_times() const {
     const ContactTimes t = m_times;
@@ -146,10 +153,22 @@ class ClothContact final : public Term {
   const std::vector<double>& near_distances(const VecX& x) const;
   /// Makes the cache of near pairs valid at x.
   void ensure_near(const VecX& x) const;
-  /// Whether every point of x is within δ of its segment [x_b, x_b + s] of the cache.
+  /// The points of x farther than δ from their segments [x_b, x_b + s] of the cache, after the common translation c
+  /// and segment parameter t that fit x best (both returned).
+  std::vector<Index> escaped(const VecX& x, Vec3& c, double& t) const;
+  /// Whether every point of x is within δ of its segment of the cache.
   bool near_valid(const VecX& x) const;
   /// The cache at x, for every point within δ of x (step null) or of the segment from x along *step.
   void rebuild_near(const VecX& x, const VecX* step) const;
+  /// The cache made valid at x by new bases for the `moved` points (escaped() at x, with its c and t) and a search
+  /// for their pairs alone.
+  void update_near(const VecX& x, const std::vector<Index>& moved, const Vec3& c, double t) const;
+  /// The cache's pairs among m_candidates (those within reach at base x with the cache's step rel), appended.
+  void add_near_pairs(const VecX& x, const VecX& rel) const;
+  /// Candidate k of c (vertex–triangle ones first) as a pair, its weight and layer set.
+  Pair candidate_pair(const collision::Candidates& c, Index k) const;
+  /// Beyond this fraction of the points, a local update of the cache costs about as much as a rebuild.
+  static constexpr double kLocalUpdateFraction = 0.25;
   /// The near pairs (indices into m_near) inside their layer at x.
   std::vector<Index> active(const VecX& x) const;
   bool same_surface_neighbours(const Pair& p) const;
