@@ -4,6 +4,7 @@
 #include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -115,6 +116,50 @@ TEST(Simulation, ResumeReproducesAnUninterruptedRun) {
   sim::Simulator s(other);
   sim::Recorder rec(root / "split", s);
   EXPECT_THROW(rec.resume(s), InputError);
+  fs::remove_all(root);
+}
+
+TEST(Simulation, SurfacesJsonNamesEachClothsVerticesAndTrianglesOfTheFrames) {
+  // Two of the stacked sheets at different resolutions: a viewer colours each by its ranges in the frame files.
+  const std::string path = std::string(MGCLOTH_SOURCE_DIR) + "/scenes/layers_sphere.json";
+  Json j = load_json(path);
+  j["cloths"] = Json::array({j["cloths"][0], j["cloths"][1]});
+  j["cloths"][0]["mesh"]["vertices"] = 150;
+  j["cloths"][1]["mesh"]["vertices"] = 240;
+  j["frames"] = 1;
+  sim::Simulator s(sim::parse_scene(j, path, fs::path(path).parent_path()));
+  const fs::path root = fs::temp_directory_path() / ("mgcloth_surfaces_test_" + std::to_string(::getpid()));
+  fs::remove_all(root);
+  sim::Recorder rec(root, s);
+  rec.start(s);
+  const Json surfaces = load_json((root / "surfaces.json").string());
+  ASSERT_EQ(surfaces.size(), 2u);
+  Index vertices = 0, triangles = 0;
+  for (size_t k = 0; k < 2; ++k) {
+    const auto& body = *s.cloths()[k];
+    EXPECT_EQ(surfaces[k]["name"], body.name());
+    EXPECT_EQ(surfaces[k]["vertices"][0].get<Index>(), vertices);
+    EXPECT_EQ(surfaces[k]["vertices"][1].get<Index>(), body.mesh().num_vertices());
+    EXPECT_EQ(surfaces[k]["triangles"][0].get<Index>(), triangles);
+    EXPECT_EQ(surfaces[k]["triangles"][1].get<Index>(), body.mesh().num_triangles());
+    vertices += body.mesh().num_vertices();
+    triangles += body.mesh().num_triangles();
+  }
+  EXPECT_NE(vertices, 2 * s.cloths()[0]->mesh().num_vertices());
+  // The frame file holds exactly those vertices and triangles, and the second cloth's faces use its own range.
+  const std::string obj = read_file(sim::Recorder::frame_path(root, 0));
+  EXPECT_NE(obj.find(fmt::format("# mgcloth: {} vertices, {} triangles", vertices, triangles)), std::string::npos);
+  const auto& second = s.cloths()[1]->mesh().tris[0];
+  const Index first = surfaces[1]["vertices"][0].get<Index>() + 1;
+  EXPECT_NE(obj.find(fmt::format("\nf {0}/{0} {1}/{1} {2}/{2}\n", second[0] + first, second[1] + first,
+                                 second[2] + first)),
+            std::string::npos);
+  // A resumed run rewrites it the same.
+  const std::string written = read_file(root / "surfaces.json");
+  fs::remove(root / "surfaces.json");
+  sim::Simulator again(sim::parse_scene(j, path, fs::path(path).parent_path()));
+  sim::Recorder(root, again).resume(again);
+  EXPECT_EQ(read_file(root / "surfaces.json"), written);
   fs::remove_all(root);
 }
 

@@ -89,6 +89,18 @@ if (run(['run', path.join(work, 'tiny.json'), '--out', runDir, '-q'], { allowFai
   fs.writeFileSync(path.join(work, 'tiny.json'), JSON.stringify(scene));
   run(['run', path.join(work, 'tiny.json'), '--out', runDir, '-q']);
 }
+// Two cloths side by side (OBJ frames): each gets its own colour.
+const layersDir = path.join(work, 'layers');
+const two = {
+  frames: 2,
+  cloths: [{ name: 'lower', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [-0.35, -0.3, 0] } },
+           { name: 'upper', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [0.05, -0.3, 0] } }],
+  solver: { name: 'newton-direct', rel_grad: 1e-3, max_iters: 50 },
+  output: { format: ['obj'] },
+};
+fs.writeFileSync(path.join(work, 'two.json'), JSON.stringify(two));
+run(['run', path.join(work, 'two.json'), '--out', layersDir, '-q']);
+
 // A bench folder as `mgcloth bench convergence` writes it (two solvers, made-up traces).
 const benchDir = path.join(work, 'bench');
 fs.mkdirSync(benchDir);
@@ -143,6 +155,11 @@ try {
           `${source}: wireframe draws differently (mean ${shaded2.mean.toFixed(1)} -> ${wire.mean.toFixed(1)})`);
   }
 
+  // One cloth is drawn in one tint: nothing warm.
+  const single = await stats();
+  check(single.cool > 0.01 && single.warm < 0.002,
+        `one cloth, one tint (warm ${single.warm.toFixed(4)}, cool ${single.cool.toFixed(4)})`);
+
   // Stats beside the animation: one plot per column, each drawn.
   const columns = await page.$$eval('#side canvas', (cs) => cs.map((c) => c.dataset.column));
   check(columns.join() === 'iterations,energy,wall_ms', `stats plots: ${columns.join(', ')}`);
@@ -152,6 +169,16 @@ try {
   }
 
   check(errors.length === 0, `no page errors (${errors.join('; ') || 'none'})`);
+
+  // Two cloths: each in its own colour, from surfaces.json (the first bluish, the second orange).
+  const layers = await view(layersDir);
+  servers.push(layers.child);
+  await page.goto(layers.url);
+  await ready();
+  const ls = await state();
+  const two = await stats();
+  check(!ls.error && ls.surfaces?.join() === 'lower,upper' && two.warm > 0.01 && two.cool > 0.01,
+        `two cloths in two colours (${ls.error ?? ls.surfaces?.join()}; warm ${two.warm.toFixed(3)}, cool ${two.cool.toFixed(3)})`);
 
   // A frame that is not there is an error the page says.
   await page.goto(`${url}?frame=99`);

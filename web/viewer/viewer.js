@@ -35,15 +35,19 @@ const api = {
     } else {
       data = c.getContext('2d').getImageData(0, 0, w, h).data;
     }
-    let n = 0, sum = 0, sum2 = 0;
+    let n = 0, sum = 0, sum2 = 0, warm = 0, cool = 0;
     const colors = new Set();
     for (let i = 0; i < data.length; i += 4 * 7) {
       const l = 0.299 * data[i] + 0.587 * data[i + 1] + 0.114 * data[i + 2];
       sum += l; sum2 += l * l; ++n;
+      if (data[i] > data[i + 2] + 40) ++warm;
+      else if (data[i + 2] > data[i] + 40) ++cool;
       if (colors.size < 4096) colors.add((data[i] << 16) | (data[i + 1] << 8) | data[i + 2]);
     }
     const mean = sum / n;
-    return { width: w, height: h, mean, std: Math.sqrt(Math.max(0, sum2 / n - mean * mean)), colors: colors.size };
+    // warm, cool: fractions of pixels clearly redder or bluer than they are the other, to tell tints apart.
+    return { width: w, height: h, mean, std: Math.sqrt(Math.max(0, sum2 / n - mean * mean)), colors: colors.size,
+             warm: warm / n, cool: cool / n };
   },
 };
 window.mgclothViewer = api;
@@ -175,9 +179,25 @@ async function startRun(listing, names) {
   geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(3 * frames.numVertices), 3));
   if (frames.uv) geometry.setAttribute('uv', new THREE.BufferAttribute(frames.uv, 2));
   geometry.setIndex(new THREE.BufferAttribute(frames.index, 1));
-  const shaded = new THREE.MeshStandardMaterial({ color: 0x6f9fe0, roughness: 0.85, side: THREE.DoubleSide,
-                                                  map: frames.uv ? clothTexture() : null });
-  if (shaded.map) shaded.color.set(0x8fb5ec);
+  // One colour per body when the run says which triangles are whose (surfaces.json), so layers tell apart.
+  const surfaces = names.has('surfaces.json') ? await (await fetchOk(DATA + 'surfaces.json')).json() : null;
+  const tint = (hex) => new THREE.Color(hex).lerp(new THREE.Color(0xffffff), frames.uv ? 0.35 : 0.0);
+  const texture = frames.uv ? clothTexture() : null;
+  const clothMaterial = (color) => new THREE.MeshStandardMaterial({ color, roughness: 0.85, side: THREE.DoubleSide,
+                                                                    map: texture });
+  let shaded = clothMaterial(texture ? 0x8fb5ec : 0x6f9fe0);
+  if (surfaces && surfaces.length > 1) {
+    const tris = frames.index.length / 3;
+    const ok = Array.isArray(surfaces) && surfaces.every((b, k) => Array.isArray(b.triangles) && b.triangles.length === 2 &&
+                                                           b.triangles[0] === (k ? surfaces[k - 1].triangles[0] + surfaces[k - 1].triangles[1] : 0)) &&
+               surfaces.at(-1).triangles[0] + surfaces.at(-1).triangles[1] === tris;
+    if (!ok) throw new Error(`surfaces.json: its triangle ranges do not cover the ${tris} triangles of the frames`);
+    shaded = surfaces.map((b, k) => {
+      geometry.addGroup(3 * b.triangles[0], 3 * b.triangles[1], k);
+      return clothMaterial(tint(PALETTE[k % PALETTE.length]));
+    });
+  }
+  api.state.surfaces = surfaces ? surfaces.map((b) => b.name) : [];
   const wire = new THREE.MeshBasicMaterial({ color: 0x1d3b6e, wireframe: true });
   const cloth = new THREE.Mesh(geometry, shaded);
   cloth.castShadow = cloth.receiveShadow = true;

@@ -21,6 +21,7 @@ constexpr std::size_t kFramesHeaderBytes = sizeof(kFramesMagic) + sizeof(std::ui
 constexpr const char* kFramesFile = "frames.bin";
 constexpr const char* kGlbFile = "animation.glb";
 constexpr const char* kCheckpointFile = "checkpoint.bin";
+constexpr const char* kSurfacesFile = "surfaces.json";
 
 template <class T>
 void put(std::ostream& o, const T& v) {
@@ -32,7 +33,8 @@ bool is_frame_file(const std::string& name) {
 }
 /// Whether a run writes a file of this name into its folder (so that a temporary for it is one of ours).
 bool is_run_output(const std::string& name) {
-  for (const char* own : {kCheckpointFile, kFramesFile, kGlbFile, "stats.csv", "trace.csv", "probes.csv", "scene.resolved.json"})
+  for (const char* own : {kCheckpointFile, kFramesFile, kGlbFile, "stats.csv", "trace.csv", "probes.csv", "scene.resolved.json",
+                          kSurfacesFile})
     if (name == own) return true;
   return is_frame_file(name);
 }
@@ -67,9 +69,13 @@ Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
   m_trace.header = "frame,step,cloth,iteration,energy,grad_norm,wall_ms,alpha";
   Index offset = 0;
   std::vector<Vec2> u;
+  m_surfaces = Json::array();
   for (const auto& body : sim.bodies()) {
     const auto& m = body->surface_mesh();
     const Mat2X uv = body->surface_uv();
+    m_surfaces.push_back({{"name", body->name()},
+                          {"vertices", {offset, m.num_vertices()}},
+                          {"triangles", {static_cast<Index>(m_combined.tris.size()), m.num_triangles()}}});
     for (Index i = 0; i < m.num_vertices(); ++i) u.push_back(uv.col(i));
     for (const auto& t : m.tris) m_combined.tris.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
     offset += m.num_vertices();
@@ -132,6 +138,7 @@ fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt
 void Recorder::start(const Simulator& sim) {
   fs::create_directories(m_dir);
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
+  write_file_atomic(m_dir / kSurfacesFile, m_surfaces.dump(2) + "\n");
   m_stats.rows.clear();
   m_trace.rows.clear();
   m_probes.rows.clear();
@@ -392,6 +399,7 @@ void Recorder::resume(Simulator& sim) {
   if (m_record_trace) m_trace.load_up_to_step(m_dir, step);
   if (m_record_probes) m_probes.load_up_to_step(m_dir, step);
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
+  write_file_atomic(m_dir / kSurfacesFile, m_surfaces.dump(2) + "\n");
   write_logs();
 }
 

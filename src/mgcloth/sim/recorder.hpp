@@ -8,7 +8,9 @@ namespace mgcloth::sim {
 /// Writes a run to its output folder: frame_NNNNN.obj (format "obj": all cloths, then the limit surface of every
 /// shell sampled for display; world positions with the material vt), animation.glb (format "glb", see finish()),
 /// probes.csv for shells with probes, stats.csv (one row per step and cloth), scene.resolved.json (every default
-/// filled in) and checkpoint.bin (sim::Checkpoint after the last complete frame). Every file is written
+/// filled in), surfaces.json (which vertices and triangles of the frames belong to which body: a list of
+/// {"name", "vertices": [first, count], "triangles": [first, count]}, so that a viewer or script can tell the
+/// cloths apart) and checkpoint.bin (sim::Checkpoint after the last complete frame). Every file is written
 /// atomically, so an interrupted run leaves only complete files, and `resume()` continues it from its last
 /// checkpoint. The one exception is frames.bin, the glb format's record of the frames so far: it is only appended
 /// to (a long run must not rewrite every earlier frame each frame), and resume() cuts it back to the checkpoint.
@@ -56,6 +58,7 @@ class Recorder {
   std::filesystem::path m_dir;
   std::uint64_t m_fingerprint = 0;
   mesh::TriMesh m_combined;  ///< all cloths in one mesh for frame files (vt in each cloth's UV units)
+  Json m_surfaces;           ///< surfaces.json: each body's range of m_combined's vertices and triangles
   /// A CSV file kept in memory and rewritten atomically, so that it always matches the checkpoint.
   struct CsvLog {
     std::string name, header;
