@@ -92,8 +92,14 @@ void gather_pairs(Index n, std::vector<std::vector<Pair>>& chunks, std::vector<P
   std::vector<size_t> offset(count + 1, 0);
   for (Index c = 0; c < count; ++c) offset[c + 1] = offset[c] + chunks[c].size();
   out.resize(offset[count]);
+  // The chunks' memory is given back: a search along a long step can find far more pairs than the next one.
   parallel_for(
-      count, [&](Index c) { std::copy(chunks[c].begin(), chunks[c].end(), out.begin() + offset[c]); }, 2);
+      count,
+      [&](Index c) {
+        std::copy(chunks[c].begin(), chunks[c].end(), out.begin() + offset[c]);
+        std::vector<Pair>().swap(chunks[c]);
+      },
+      2);
 }
 
 /// The pairs ascending: bucketed by their first index (counting), each bucket sorted.
@@ -334,6 +340,7 @@ void BroadPhase::find_touching(const VecX& x, const VecX* d, double inflate, con
   std::sort(m_unordered.begin(), m_unordered.end());
   m_unordered.erase(std::unique(m_unordered.begin(), m_unordered.end()), m_unordered.end());
   out.edge_edge.swap(m_unordered);
+  std::vector<Pair>().swap(m_unordered);
 }
 
 template <class PointBox>
@@ -356,6 +363,7 @@ void BroadPhase::find_with(const PointBox& point_box, double inflate, Candidates
     });
   });
   sort_pairs(static_cast<Index>(s.edges.size()), m_unordered, out.edge_edge);
+  std::vector<Pair>().swap(m_unordered);
 }
 
 void find_brute_force(const SurfaceTopology& s, const VecX& x, double inflate, Candidates& out) {

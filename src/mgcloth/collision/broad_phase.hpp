@@ -146,8 +146,8 @@ class BroadPhase {
   Bvh m_triangles, m_edges;
   std::vector<Aabb> m_triangle_boxes, m_edge_boxes, m_vertex_boxes;
   double m_triangle_area_at_build = 0.0, m_edge_area_at_build = 0.0;
-  std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results, kept for their capacity
-  std::vector<std::array<Index, 2>> m_unordered;             ///< edge pairs before sort_pairs
+  std::vector<std::vector<std::array<Index, 2>>> m_chunks;  ///< per-chunk results (scratch, emptied after use)
+  std::vector<std::array<Index, 2>> m_unordered;             ///< pairs before sorting (scratch, emptied after use)
   std::vector<Index> m_vertex_of_point;                      ///< per point, its index in vertices (-1: none)
   Index m_builds = 0;
   double m_rebuild_growth = kRebuildGrowth;

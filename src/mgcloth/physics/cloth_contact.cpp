@@ -279,12 +279,12 @@ ClothContact::Pair ClothContact::candidate_pair(const collision::Candidates& c, 
 void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
   const Index nvt = static_cast<Index>(m_candidates.vertex_triangle.size());
   const Index nee = static_cast<Index>(m_candidates.edge_edge.size());
-  std::vector<Pair> all(static_cast<size_t>(nvt + nee));
-  std::vector<char> keep(all.size(), 0);
+  // A rebuild along a long step can have hundreds of millions of candidates: a byte each here, and the few kept are
+  // made into pairs again below, rather than a Pair (48 bytes) for every one.
+  std::vector<char> keep(static_cast<size_t>(nvt + nee), 0);
   const bool moving = rel.squaredNorm() > 0.0;
   parallel_for(nvt + nee, [&](Index k) {
-    Pair& p = all[static_cast<size_t>(k)];
-    p = candidate_pair(m_candidates, k);
+    const Pair p = candidate_pair(m_candidates, k);
     // At a covered point, relative to the pair's first point, each point i has moved by t(s_i − s_0) + e_i, so each
     // side's distance drops by at most its largest |s_i − s_0| plus δ.
     const int split = p.edge_edge ? 2 : 1;
@@ -300,10 +300,11 @@ void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
     if (lower_bound_distance(p, x) >= reach || distance(p, x) >= reach) return;
     keep[static_cast<size_t>(k)] = same_surface_neighbours(p) ? 2 : 1;
   });
-  for (size_t k = 0; k < all.size(); ++k) {
-    if (keep[k] == 1) m_near.push_back(all[k]);
-    if (keep[k] == 2) m_near_neighbours.push_back(all[k]);
+  for (size_t k = 0; k < keep.size(); ++k) {
+    if (keep[k] == 1) m_near.push_back(candidate_pair(m_candidates, static_cast<Index>(k)));
+    if (keep[k] == 2) m_near_neighbours.push_back(candidate_pair(m_candidates, static_cast<Index>(k)));
   }
+  m_candidates = {};  // not needed until the next search, and the largest thing contact holds
 }
 
 double ClothContact::lower_bound_distance(const Pair& p, const VecX& x) const {
