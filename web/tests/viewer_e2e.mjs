@@ -93,8 +93,8 @@ if (run(['run', path.join(work, 'tiny.json'), '--out', runDir, '-q'], { allowFai
 const layersDir = path.join(work, 'layers');
 const two = {
   frames: 2,
-  cloths: [{ name: 'lower', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [-0.35, -0.3, 0] } },
-           { name: 'upper', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [0.05, -0.3, 0] } }],
+  cloths: [{ name: 'left', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [-0.35, -0.3, 0] } },
+           { name: 'right', mesh: { width: 0.3, height: 0.6, vertices: 60 }, transform: { translation: [0.05, -0.3, 0] } }],
   solver: { name: 'newton-direct', rel_grad: 1e-3, max_iters: 50 },
   output: { format: ['obj'] },
 };
@@ -170,14 +170,14 @@ try {
 
   check(errors.length === 0, `no page errors (${errors.join('; ') || 'none'})`);
 
-  // Two cloths: each in its own colour, from surfaces.json (the first bluish, the second orange).
+  // Two cloths: each in its own colour, from surfaces.json (the left bluish, the right orange).
   const layers = await view(layersDir);
   servers.push(layers.child);
   await page.goto(layers.url);
   await ready();
   const ls = await state();
   const two = await stats();
-  check(!ls.error && ls.surfaces?.join() === 'lower,upper' && two.warm > 0.01 && two.cool > 0.01,
+  check(!ls.error && ls.surfaces?.join() === 'left,right' && two.warm > 0.01 && two.cool > 0.01,
         `two cloths in two colours (${ls.error ?? ls.surfaces?.join()}; warm ${two.warm.toFixed(3)}, cool ${two.cool.toFixed(3)})`);
 
   // A frame that is not there is an error the page says.
