@@ -135,10 +135,14 @@ std::string Recorder::stats_row(const StepStats& s) {
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }
 
-void Recorder::start(const Simulator& sim) {
-  fs::create_directories(m_dir);
+void Recorder::write_description(const Simulator& sim) const {
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
   write_file_atomic(m_dir / kSurfacesFile, m_surfaces.dump(2) + "\n");
+}
+
+void Recorder::start(const Simulator& sim) {
+  fs::create_directories(m_dir);
+  write_description(sim);
   m_stats.rows.clear();
   m_trace.rows.clear();
   m_probes.rows.clear();
@@ -398,8 +402,7 @@ void Recorder::resume(Simulator& sim) {
   m_stats.load_up_to_step(m_dir, step);
   if (m_record_trace) m_trace.load_up_to_step(m_dir, step);
   if (m_record_probes) m_probes.load_up_to_step(m_dir, step);
-  write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
-  write_file_atomic(m_dir / kSurfacesFile, m_surfaces.dump(2) + "\n");
+  write_description(sim);
   write_logs();
 }
 

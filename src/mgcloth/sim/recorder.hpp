@@ -44,6 +44,8 @@ class Recorder {
   void check_glb_size(const Simulator& sim) const;
   /// Positions of m_combined's vertices: every cloth, then every shell's display surface.
   Mat3X surface_positions(const Simulator& sim) const;
+  /// scene.resolved.json and surfaces.json: what the run is, written by start() and again by resume().
+  void write_description(const Simulator& sim) const;
   void write_frame(const Simulator& sim) const;
   /// frames.bin: a header (magic, scene fingerprint, vertex count), then per written frame its number, its time
   /// and the float32 positions of m_combined's vertices.
