@@ -34,7 +34,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct ConvergenceArgs {
-  std::string scene, solvers, out, state_cache, body;
+  std::string scene, solvers, out, state_cache, body, warmup;
   int step = 0;
   double budget = 10.0;
   double reference_seconds = 600.0;
@@ -208,6 +208,10 @@ int run_convergence_command() {
   opt.threads = g_conv.threads;
   opt.state_cache = g_conv.state_cache;
   opt.body = g_conv.body;
+  if (!g_conv.warmup.empty()) {
+    opt.warmup = with_prefix("--warmup-solver", [] { return studies::parse_solver_spec(g_conv.warmup); });
+    with_prefix("--warmup-solver", [&] { return studies::check_solver_spec(opt.warmup); });
+  }
   for (size_t i = 0; i < specs.size(); ++i)
     for (size_t j = 0; j < i; ++j)
       if (specs[i].label == specs[j].label) throw_input_error("--solvers: \"{}\" is listed twice", specs[i].label);
@@ -503,6 +507,9 @@ void add_bench_command(CLI::App& app) {
       conv->add_option("--vertices", g_conv.vertices, "Target vertex count of each generated cloth (per cloth)");
   conv->add_option("--state-cache", g_conv.state_cache,
                    "File caching the state at the start of step K (reused when the scene, vertex count and K match)");
+  conv->add_option("--warmup-solver", g_conv.warmup,
+                   "The solver that simulates steps 1 to K - 1, NAME or NAME@key=value@... (default: the E* "
+                   "reference, newton-direct)");
   conv->add_flag("--quiet,-q", g_conv.quiet, "No progress log");
 
   auto* scal = bench->add_subcommand("scalability", "Wall time per step of one solver against the cloth's vertex count");

@@ -9,7 +9,9 @@
 # step 8, no solver reached 1e-3 within 120 s on a shared 2-core machine; give BUDGET room.
 # Usage: bench/cloth_contact/solvers.sh VERTICES_PER_SHEET STEP THREADS [OUT]
 # Environment: BUDGET (seconds per solver, default 60); SOLVERS (default fmg,newton-direct,newton-amg; the ratios
-# are to the first); TABLE_ONLY (set: only print the table of OUT again); MGCLOTH_CLI (default build/bin/mgcloth).
+# are to the first); WARMUP (the solver of steps 1 … STEP − 1, default newton-direct; at 120K use fmg: newton-direct
+# took 13 min for step 4 alone); REFERENCE_SECONDS (cap of the E* solve, default 600); TABLE_ONLY (set: only print
+# the table of OUT again); MGCLOTH_CLI (default build/bin/mgcloth).
 set -euo pipefail
 if [[ $# -lt 3 ]]; then
   echo "usage: $0 VERTICES_PER_SHEET STEP THREADS [OUT]" >&2
@@ -25,6 +27,7 @@ mkdir -p "$out"
 if [[ -z ${TABLE_ONLY:-} ]]; then
   OMP_WAIT_POLICY=passive "$cli" bench convergence scenes/layers_sphere.json --step "$step" --vertices "$per_sheet" \
     --solvers "$solvers" --budget "$budget" -j "$threads" --state-cache "$out/state.bin" --out "$out" -q \
+    ${WARMUP:+--warmup-solver "$WARMUP"} --reference-seconds "${REFERENCE_SECONDS:-600}" \
     > "$out/summary.txt" || { cat "$out/summary.txt" >&2; exit 1; }
 fi
 python3 - "$out" <<'PY'

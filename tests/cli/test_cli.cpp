@@ -356,7 +356,7 @@ TEST_F(Cli, BenchConvergenceWritesCsvJsonAndPlot) {
   const fs::path out = dir / "conv";
   const auto r = run("bench convergence " + small_scene() +
                      " --step 2 --vertices 300 --solvers newton,newton@linear_solver=pcg-jacobi --budget 3 --max-iters 40 "
-                     "--threads 1 --quiet --out " + out.string());
+                     "--warmup-solver fmg --threads 1 --quiet --out " + out.string());
   ASSERT_TRUE(r.code == 0 || plot_unavailable(r)) << r.out;
   const auto csv = mgcloth::read_file(out / "convergence.csv");
   EXPECT_EQ(csv.substr(0, csv.find('\n')), "solver,iteration,wall_s,energy,grad_norm,rel_energy_error");
@@ -371,6 +371,7 @@ TEST_F(Cli, BenchConvergenceWritesCsvJsonAndPlot) {
   EXPECT_TRUE(rows.count("newton@linear_solver=pcg-jacobi"));
   const auto report = mgcloth::parse_json(mgcloth::read_file(out / "convergence.json"), "convergence.json");
   EXPECT_EQ(report.at("step"), 2);
+  EXPECT_EQ(report.at("steps_before_by"), "fmg");  // --warmup-solver
   EXPECT_EQ(report.at("references")[0].at("form"), "elastic");
   EXPECT_TRUE(report.at("references")[0].at("energy").is_number());
   ASSERT_EQ(report.at("solvers").size(), 2u);
@@ -426,6 +427,7 @@ TEST_F(Cli, BenchRejectsBadInputWithOneLine) {
   expect_error(run(conv + " --step 2 --solvers ,"), "--solvers");
   expect_error(run(conv + " --step 2 --solvers newton@oops"), "not key=value");
   expect_error(run(conv + " --step 2 --solvers newton --reference-seconds 0"), "--reference-seconds: must be a positive");
+  expect_error(run(conv + " --step 2 --solvers newton --warmup-solver fgm"), "unknown solver \"fgm\"");
   expect_error(run("bench convergence " + (dir / "absent.json").string() + out + " --step 2 --solvers newton"),
                "absent.json: no such file");
   expect_error(run("bench convergence " + scene + " --out " + scene + " --step 2 --solvers newton"), "not a folder");

@@ -133,6 +133,33 @@ TEST(ClothContact, MaxStepStopsASheetBeforeItPassesThroughAnother) {
   EXPECT_EQ(c.max_step(x, side, 1.0), 1.0);
 }
 
+// A step that moves one sheet through another by forty times the mesh spacing is checked in pieces (so that a
+// rebuild along it does not hold every pair its swept boxes meet): the impact in the first piece, or in a later one,
+// still stops it just before the sheets meet, and a step moving them apart as far is not limited at all.
+TEST(ClothContact, ALongStepIsCheckedInPiecesAndStopsAtItsImpact) {
+  for (double gap : {0.01, 0.06}) {
+    VecX x;
+    std::vector<ContactSurface> s;
+    s.push_back(sheet("a", 0.05, 121, 0.0, 0, x));  // 5 mm spacing
+    const Index top = static_cast<Index>(x.size() / 3);
+    s.push_back(sheet("b", 0.05, 121, gap, top, x));
+    const Index n = static_cast<Index>(x.size() / 3);
+    for (Index i = top; i < n; ++i) x.segment<2>(3 * i) += Vec2(0.0013, 0.0021);
+    ClothContact c(s, n, ClothContactParams{});
+    VecX d = VecX::Zero(x.size());
+    for (Index i = top; i < n; ++i) d[3 * i + 2] = -0.2;
+    const double impact = gap / 0.2;
+    const double a = c.max_step(x, d, 1.0);
+    EXPECT_LT(a, impact) << gap;
+    EXPECT_GT(a, 0.8 * impact) << gap;
+    const VecX y = x + a * d;
+    EXPECT_EQ(collision::find_intersections(y, c.triangles()).size(), 0u) << gap;
+    ClothContact fresh(s, n, ClothContactParams{});
+    EXPECT_GT(fresh.stats(y).min_distance, 0.0) << gap;
+    EXPECT_EQ(c.max_step(x, -d, 1.0), 1.0) << gap;
+  }
+}
+
 TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
   VecX x;
   std::vector<ContactSurface> s;
@@ -148,7 +175,8 @@ TEST(ClothContact, CachedPairsGiveTheSameEnergyAsAFreshTerm) {
     ClothContact fresh(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
     EXPECT_DOUBLE_EQ(cached.value(y), fresh.value(y)) << dz;
   }
-  // After max_step along a long step the cache holds the whole segment: trial points on it see every pair.
+  // After max_step along a long step the cache holds (the last checked piece of) the segment: trial points on it,
+  // and before it, see every pair.
   VecX d = VecX::Zero(x.size());
   for (Index i = top; i < x.size() / 3; ++i) d.segment<3>(3 * i) = Vec3(0.004, -0.003, -0.0035);
   const double a = cached.max_step(x, d, 1.0);

@@ -36,7 +36,7 @@ struct ClothContactParams {
   double barrier_fraction = 0.25;  ///< τ/r
   /// Continuous collision detection stops a motion where a pair has come down to this fraction of its distance
   /// (Li et al. 2021, Alg. 1's s): the largest admissible step keeps every pair at least this far apart relative to
-  /// where it started.
+  /// where it started, or where the piece of the step that max_step checks started.
   double ccd_separation = 0.1;
 };
 
@@ -93,9 +93,11 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// guarantee, and a cloth at rest whose edge flutters does not pay for a whole search. Otherwise the cache is
 /// rebuilt. When many points move far, max_step() builds the cache along its step x_b + [0, 1]·s instead, in a frame
 /// moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below r + 2δ plus how far
-/// its own points move relative to each other), so that the trial points of the line search that follows all find it
+/// its own points move relative to each other), so that the trial points of the line search that follows find it
 /// valid, and a stack of cloths falling together does not sweep everything it passes; when few do, it searches only
-/// their pairs along the step, for collision detection. A step whose two ends the cache covers needs neither: the
+/// their pairs along the step, for collision detection. A step that moves points farther than about a mesh spacing
+/// relative to its mean is checked in pieces of that length, up to the first with a collision, and the cache then
+/// holds the last piece checked. A step whose two ends the cache covers needs neither: the
 /// points it covers form a convex set. Every step starts from a fresh cache (reset_near). The Hessian's stencils
 /// are the pairs within r + δ at the last change, kept until a pair inside the layer is missing from them, so the
 /// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
@@ -142,6 +144,8 @@ class ClothContact final : public Term {
     double weight = 0.0;     ///< w
     double r = 0.0;          ///< the layer's thickness for this pair
   };
+  /// Continuous collision detection of the motion x + [0, 1]·step in one piece: the largest admissible fraction.
+  double collision_time(const VecX& x, const VecX& step) const;
   /// The distance of pair p at x (exact, nearest features).
   double distance(const Pair& p, const VecX& x) const;
   /// w ψ(d) of pair p at x; gradient and Hessian (12) when non-null; 0 outside the layer.
@@ -195,6 +199,7 @@ class ClothContact final : public Term {
   mutable std::uint64_t m_eval_generation = ~std::uint64_t{0};
   mutable ContactTimes m_times;
   double m_delta = 0.0;      ///< δ of the cache
+  double m_sweep_length = kInf;  ///< the most a piece of a checked step moves a point relative to the mean
 
   std::vector<std::array<Index, 4>> m_stencils;  ///< sorted, the pattern's contact stencils
   bool m_stencils_pending = false;               ///< start_step changed them: the next update_stencils says so

@@ -398,7 +398,8 @@ struct Study {
   size_t body = 0;                 ///< study_body(scene, opt.body)
   size_t group = 0;                ///< its group in the study's simulators (study_group)
   std::vector<bool> projective;    ///< per opt.solvers: whether it minimizes the Projective Dynamics form
-  SolverSpec elastic;              ///< simulates steps 1 … K − 1 and gives the elastic form's E*
+  SolverSpec elastic;              ///< gives the elastic form's E*
+  SolverSpec warmup{};             ///< simulates steps 1 … K − 1
   Json key{};                      ///< what the state at the start of step K depends on
   SimState state{};                ///< the state at the start of step K
   VecX x0{};                       ///< the frozen problem's start point, the same for every solver
@@ -436,7 +437,7 @@ std::vector<bool> check_study(const sim::Scene& scene, const ConvergenceOptions&
   return projective;
 }
 
-/// The state at the start of step K: simulated with the reference solver and the scene's stop criteria, or cached.
+/// The state at the start of step K: simulated with the warm-up solver and the scene's stop criteria, or cached.
 SimState start_of_step(const Study& st, ConvergenceResult& result) {
   const long steps_before = st.opt.step - 1;
   std::optional<SimState> state;
@@ -447,11 +448,11 @@ SimState start_of_step(const Study& st, ConvergenceResult& result) {
     return *state;
   }
   result.start_state = "simulated";
-  sim::Simulator sim(with_solver(st.scene, st.elastic, st.opt.threads));
+  sim::Simulator sim(with_solver(st.scene, st.warmup, st.opt.threads));
   Timer timer;
   while (sim.step_count() < steps_before) {
     sim.step();
-    logger().info("step {}/{} simulated with {} ({:.1f} s)", sim.step_count(), steps_before, st.elastic.label,
+    logger().info("step {}/{} simulated with {} ({:.1f} s)", sim.step_count(), steps_before, st.warmup.label,
                   timer.seconds());
   }
   state = simulator_state(sim);
@@ -643,6 +644,7 @@ void polish_references(const Study& st, ConvergenceResult& result) {
 ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt) {
   Study st{.scene = scene, .opt = opt, .projective = check_study(scene, opt), .elastic = elastic_reference()};
   st.body = study_body(scene, opt.body);
+  st.warmup = opt.warmup.label.empty() ? st.elastic : opt.warmup;
   if (opt.threads > 0) set_num_threads(opt.threads);
 
   ConvergenceResult result;
@@ -650,13 +652,13 @@ ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOpti
   result.cloth = st.body < scene.cloths.size() ? scene.cloths[st.body].name
                                                : scene.shells[st.body - scene.cloths.size()].name;
   result.step = opt.step;
-  result.warmup_solver = st.elastic.label;
+  result.warmup_solver = st.warmup.label;
   if (scene.cloths.size() + scene.shells.size() > 1 && !frozen_group_is_scenes(scene))
     logger().info("{}: {} bodies; the benchmark freezes the objective of \"{}\" (--body) only", scene.file,
                   scene.cloths.size() + scene.shells.size(), result.cloth);
 
   st.key = {{"purpose", "start of a benchmarked step"},
-            {"scene", state_cache_key(with_solver(scene, st.elastic, 0))},
+            {"scene", state_cache_key(with_solver(scene, st.warmup, 0))},
             {"steps", static_cast<long>(opt.step - 1)}};
   st.state = start_of_step(st, result);
   st.x0 = frozen_start(st, result);
