@@ -151,7 +151,10 @@ TEST(ClothContact, ALongStepIsCheckedInPiecesAndStopsAtItsImpact) {
     const double impact = gap / 0.2;
     const double a = c.max_step(x, d, 1.0);
     EXPECT_LT(a, impact) << gap;
-    EXPECT_GT(a, 0.8 * impact) << gap;
+    // A piece moves the top sheet 1 cm (5 mm relative to the mean), so the pair closes to ccd_separation of at most
+    // 1 cm: the sheet stops within about 1 mm of the other, α within 0.005 of the impact (0.0075 with the CCD's
+    // margin). Checked whole, the 6 cm gap would stop at 6 mm (α = 0.27).
+    EXPECT_GT(a, impact - 0.0075) << gap;
     const VecX y = x + a * d;
     EXPECT_EQ(collision::find_intersections(y, c.triangles()).size(), 0u) << gap;
     ClothContact fresh(s, n, ClothContactParams{});

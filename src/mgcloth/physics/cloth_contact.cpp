@@ -466,8 +466,7 @@ double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) co
   // A rebuild along a step holds every pair its swept boxes meet, and their number grows with the square of how far
   // the points move relative to each other in units of the mesh spacing: a Newton step of a 120K stack of landing
   // sheets had billions (24 GB). The step is therefore checked piece by piece, each moving the points at most
-  // m_sweep_length relative to the mean, and the check stops at the first piece with a collision, which in contact
-  // steps usually is the first.
+  // m_sweep_length relative to the mean, and the check stops at the first piece with a collision.
   double longest = 0.0;
   const auto S = as_columns(step);
   const Vec3 mean = S.rowwise().mean();
