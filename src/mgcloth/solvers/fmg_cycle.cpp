@@ -124,7 +124,7 @@ class Solve {
   bool limit_trial() {
     if (!b.limits_steps()) return true;
     b.combine(V::GTrial, 1.0, V::Trial, -1.0, V::X);
-    const double t = b.max_step(V::X, V::GTrial, 1.0);
+    const double t = timed(n.step_limit_ms, [&] { return b.max_step(V::X, V::GTrial, 1.0); });
     if (t < 1.0) b.combine(V::Trial, 1.0, V::X, t, V::GTrial);
     return t > 0.0;
   }
@@ -252,7 +252,8 @@ bool Solve::line_search(Index level, double p_slope) {
   double& start = beta[static_cast<size_t>(level)];
   // Where the motion is limited (cloth contact), every trial stays below the admissible step; a step cut short by
   // contact says nothing about the level's scale, so it does not change the level's start.
-  const double alpha0 = b.limits_steps() ? b.max_step(V::X, V::P, start) : start;
+  const double alpha0 =
+      b.limits_steps() ? timed(n.step_limit_ms, [&] { return b.max_step(V::X, V::P, start); }) : start;
   if (alpha0 < start) logger().debug("{}: level {} step limited to {:.3g} of {:.3g}", name, level, alpha0, start);
   if (!(alpha0 > 0.0)) {
     ++n.rejected;
@@ -442,7 +443,8 @@ SolveReport Solve::run(const std::vector<FmgStage>& stages) {
                   {"fallbacks", static_cast<double>(n.fallbacks)},
                   {"line_search_ms", n.line_search_ms},
                   {"gradient_ms", n.gradient_ms},
-                  {"model_ms", n.model_ms}};
+                  {"model_ms", n.model_ms},
+                  {"step_limit_ms", n.step_limit_ms}};
   for (auto& c : b.counters()) rep.counters.push_back(std::move(c));
   return rep;
 }

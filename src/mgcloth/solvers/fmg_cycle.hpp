@@ -105,6 +105,7 @@ class FmgCycle {
     long directions = 0, rejected = 0, energy_evals = 0, matrix_updates = 0, refreshes = 0, fallbacks = 0;
     int cycles = 0;
     double line_search_ms = 0.0, gradient_ms = 0.0, model_ms = 0.0;
+    double step_limit_ms = 0.0;  ///< the motion's limits (cloth contact's collision detection along each step)
   };
 
   /// `beta`: per level, the accepted step over the model step of its last direction, the next line search's
