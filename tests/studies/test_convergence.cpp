@@ -352,6 +352,12 @@ TEST(Convergence, AContactSceneFreezesTheJointStepOfItsSheets) {
     EXPECT_GT(sm.contact.pairs, 0);
     EXPECT_GT(sm.contact.min_distance, 0.0);
   }
+  // FMG's collision detection along its steps is timed apart from its other phases.
+  const auto& fmg_counters = r.summaries[0].counters;
+  const auto limit = std::find_if(fmg_counters.begin(), fmg_counters.end(),
+                                  [](const auto& c) { return c.first == "step_limit_ms"; });
+  ASSERT_NE(limit, fmg_counters.end());
+  EXPECT_GT(limit->second, 0.0);
   for (const auto& label : {"fmg", "newton-direct", "newton-amg"}) {  // the same x0: the same E_0
     const auto it = std::find_if(r.rows.begin(), r.rows.end(), [&](const auto& row) { return row.solver == label; });
     ASSERT_NE(it, r.rows.end());
