@@ -328,7 +328,9 @@ TEST(Convergence, AContactSceneFreezesTheJointStepOfItsSheets) {
   opt.step = 5;  // the upper sheet lies on the lower one, which lies on the sphere
   opt.solvers = studies::parse_solver_list("fmg,newton-direct,newton-amg");
   opt.budget_seconds = 5.0;
-  opt.max_iters = 60;  // each reaches 1e-3 within 40 (0.2 s)
+  // Each reaches 1e-3 within 200 iterations (under 1 s). With contact the energy is not convex: FMG with its
+  // refined line searches ends here in another minimum than Newton's and polishes into E* more slowly.
+  opt.max_iters = 200;
   opt.threads = 1;
   opt.body = "sheet2";  // any sheet: both are in the group
   const auto r = studies::run_convergence(scene, opt);

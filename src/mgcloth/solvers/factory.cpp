@@ -17,11 +17,13 @@ void read_line_search(JsonReader& r, LineSearchParams& p) {
   p.armijo = r.number("armijo", p.armijo, 1e-12, 0.5);
   p.shrink = r.number("backtrack", p.shrink, 0.01, 0.99);
   p.max_steps = r.integer("max_line_search_steps", p.max_steps, 1, 200);
+  p.refine = r.integer("line_search_refine", p.refine, 0, 50);
 }
 void write_line_search(Json& j, const LineSearchParams& p) {
   j["armijo"] = p.armijo;
   j["backtrack"] = p.shrink;
   j["max_line_search_steps"] = p.max_steps;
+  j["line_search_refine"] = p.refine;
 }
 
 NewtonParams read_newton(JsonReader& r, NewtonParams p) {
@@ -115,9 +117,7 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
   q.matrix_update = matrix_update_from_string(r.choice("matrix_update", to_string(q.matrix_update), {"direction", "cycle", "step"}));
   p.adaptive_threshold = r.number("adaptive_threshold", p.adaptive_threshold, 0.0, 100.0);
   q.momentum = r.boolean("momentum", q.momentum);
-  q.line_search_params.armijo = r.number("armijo", q.line_search_params.armijo, 1e-12, 0.5);
-  q.line_search_params.shrink = r.number("backtrack", q.line_search_params.shrink, 0.01, 0.99);
-  q.line_search_params.max_steps = r.integer("max_line_search_steps", q.line_search_params.max_steps, 1, 200);
+  read_line_search(r, q.line_search_params);
   p.coarse_solve = r.choice("coarse_solve", p.coarse_solve, {"auto", "device", "host"});
   c.backend = r.choice("backend", c.backend, {"cuda", "host"});
   p.profile = r.boolean("profile", p.profile);
@@ -128,20 +128,19 @@ FmgCudaConfig read_fmg_cuda(JsonReader& r) {
 Json write_fmg_cuda(const FmgCudaConfig& c) {
   const cuda::FmgSettings& p = c.s;
   const FmgCycleParams& q = c.cycle;
-  return {{"pre_smooth", p.pre_smooth},
-          {"post_smooth", p.post_smooth},
-          {"chebyshev_smoothing", p.chebyshev},
-          {"matrix_update", to_string(q.matrix_update)},
-          {"adaptive_threshold", p.adaptive_threshold},
-          {"momentum", q.momentum},
-          {"armijo", q.line_search_params.armijo},
-          {"backtrack", q.line_search_params.shrink},
-          {"max_line_search_steps", q.line_search_params.max_steps},
-          {"coarse_solve", p.coarse_solve},
-          {"backend", c.backend},
-          {"profile", p.profile},
-          {"graphs", p.graphs},
-          {"compare_spgemm", p.compare_spgemm}};
+  Json j = {{"pre_smooth", p.pre_smooth},
+            {"post_smooth", p.post_smooth},
+            {"chebyshev_smoothing", p.chebyshev},
+            {"matrix_update", to_string(q.matrix_update)},
+            {"adaptive_threshold", p.adaptive_threshold},
+            {"momentum", q.momentum},
+            {"coarse_solve", p.coarse_solve},
+            {"backend", c.backend},
+            {"profile", p.profile},
+            {"graphs", p.graphs},
+            {"compare_spgemm", p.compare_spgemm}};
+  write_line_search(j, q.line_search_params);
+  return j;
 }
 
 FasParams read_fas(JsonReader& r, FasParams p) {

@@ -88,7 +88,7 @@ struct FmgCycleParams {
   MatrixUpdate matrix_update = MatrixUpdate::Cycle;
   double refresh_below = 0.25;
   bool line_search = true;
-  LineSearchParams line_search_params{.interpolate = true};
+  LineSearchParams line_search_params{.interpolate = true, .refine = 3};
   double chebyshev_rho = 0.0;
   int chebyshev_delay = 1;
   bool momentum = true;

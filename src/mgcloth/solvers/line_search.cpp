@@ -15,9 +15,9 @@ double next_trial(double alpha, double trial_energy, double energy, double slope
 }  // namespace
 
 LineSearchResult backtrack(const std::function<double(double)>& energy_at, double e0, double slope, double alpha0,
-                           const LineSearchParams& p) {
+                           const LineSearchParams& p, const std::function<void(double)>& place) {
   LineSearchResult r;
-  double alpha = alpha0;
+  double alpha = alpha0, rejected = 0.0;
   for (int k = 0; k < p.max_steps; ++k) {
     const double e = energy_at(alpha);
     r.trials = k + 1;
@@ -25,9 +25,34 @@ LineSearchResult backtrack(const std::function<double(double)>& energy_at, doubl
       r.alpha = alpha;
       r.energy = e;
       r.success = true;
-      return r;
+      break;
     }
+    rejected = alpha;
     alpha = next_trial(alpha, e, e0, slope, p);
+  }
+  if (!r.success || r.trials == 1 || p.refine <= 0) return r;
+  // Every midpoint lies between two trials, so within whatever limit alpha0 respected (contact's max_step).
+  double lo = r.alpha, hi = rejected;
+  bool last_kept = true;
+  for (int k = 0; k < p.refine; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    const double e = energy_at(mid);
+    ++r.refined;
+    last_kept = std::isfinite(e) && e < r.energy && e <= e0 + p.armijo * mid * slope;
+    if (last_kept) {
+      r.alpha = lo = mid;
+      r.energy = e;
+    } else {
+      hi = mid;
+    }
+  }
+  if (!last_kept) {
+    if (place) {
+      place(r.alpha);
+    } else {
+      energy_at(r.alpha);
+      ++r.refined;
+    }
   }
   return r;
 }
@@ -42,7 +67,7 @@ LineSearchResult backtracking(const std::function<double(const VecX&)>& energy, 
         trial = x + alpha * d;
         return energy(trial);
       },
-      e0, slope, alpha0, p);
+      e0, slope, alpha0, p, [&](double alpha) { trial = x + alpha * d; });
   if (r.success && r.trials == 1 && model_decrease > 0.0 && p.expand_ratio > 0.0 &&
       e0 - r.energy > p.expand_ratio * model_decrease * r.alpha) {
     VecX longer;

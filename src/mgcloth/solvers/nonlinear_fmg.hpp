@@ -34,7 +34,7 @@ struct FmgParams {
   /// Backtracking line search on the true objective for every direction (§4.2.3); off for Projective Dynamics
   /// (§4.4), where the local step keeps the iteration stable.
   bool line_search = true;
-  LineSearchParams line_search_params{.interpolate = true};
+  LineSearchParams line_search_params{.interpolate = true, .refine = 3};
   /// Adaptive smoother (§4.3): a smoothing skips the vertices whose restricted residual is below
   /// adaptive_threshold × the RMS residual of that level. 0 disables (exactly the plain smoother).
   double adaptive_threshold = 0.0;
