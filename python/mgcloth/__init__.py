@@ -37,7 +37,8 @@ from ._mgcloth import (
 )
 
 __all__ = [
-    "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "OutOfMemoryError", "Plane",
+    "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "MeshObstacle", "OutOfMemoryError",
+    "Plane",
     "Simulation", "SolveError", "Sphere", "StepStats", "convergence", "grid", "load_scene", "material_presets", "num_threads",
     "set_log_level", "solver_names",
 ]
@@ -123,7 +124,9 @@ class _Obstacle:
     angles `rotation_deg`, with Coulomb `friction` and an optional scene-format `motion` dict."""
 
     def __init__(self, shape, position, rotation_deg, friction, name, motion):
-        entry = {"shape": shape, "position": _vec(position), "friction": float(friction)}
+        entry = {"position": _vec(position), "friction": float(friction)}
+        if shape is not None:
+            entry["shape"] = shape
         if rotation_deg is not None:
             entry["rotation_deg"] = _vec(rotation_deg)
         if name is not None:
@@ -164,12 +167,29 @@ class Box(_Obstacle):
 
 
 class Capsule(_Obstacle):
-    """A capsule of `radius` around a segment of half length `half_length` along its local x axis."""
+    """A capsule of `radius` around a segment of half length `half_length` along its local z axis."""
 
     def __init__(self, radius, half_length, center=(0.0, 0.0, 0.0), rotation_deg=None, *, friction=0.0, name=None,
                  motion=None):
         super().__init__({"type": "capsule", "radius": float(radius), "half_length": float(half_length)}, center,
                          rotation_deg, friction, name, motion)
+
+
+class MeshObstacle(_Obstacle):
+    """A triangle mesh from an OBJ `file` (relative paths from the scene's folder), in its own frame placed at
+    `position` and rotated by `rotation_deg`. Cloth touches it through cloth contact (the scene needs
+    "cloth_contact", e.g. Simulation(..., cloth_contact={})), penetration-free. A file name with %d or %0Nd is a
+    sequence of files deforming the mesh at `rate` files per second (from number `first`, repeated with `loop`).
+    `contact_thickness` (m): the mesh's side of the contact layer (default: the cloths')."""
+
+    def __init__(self, file, position=(0.0, 0.0, 0.0), rotation_deg=None, *, friction=0.0, name=None, motion=None,
+                 contact_thickness=None, rate=None, first=None, loop=None):
+        super().__init__(None, position, rotation_deg, friction, name, motion)
+        self.entry["mesh"] = _os.fspath(file)
+        for key, value in (("contact_thickness", contact_thickness), ("mesh_rate", rate), ("mesh_first", first),
+                           ("mesh_loop", loop)):
+            if value is not None:
+                self.entry[key] = value
 
 
 def _resolve_scene(scene):
@@ -206,7 +226,7 @@ class Simulation(_mgcloth.Simulator):
 
     scene: a scene file path, a scene dict (docs/scene-format.md; its cloths and obstacles may also be Cloth and
         obstacle objects), or None to build the scene from the keywords alone.
-    cloths, obstacles: Cloth objects (or scene dicts) and Sphere/Plane/Box/Capsule objects (or dicts), added after
+    cloths, obstacles: Cloth objects (or scene dicts) and Sphere/Plane/Box/Capsule/MeshObstacle objects (or dicts), added after
         the scene's own.
     dt: seconds per frame (the scene's "time_step"); substeps: implicit-Euler steps per frame; frames: the length
         of run(); gravity: (3,) m/s^2; threads: worker threads (0: all cores).
@@ -214,7 +234,8 @@ class Simulation(_mgcloth.Simulator):
         as `mgcloth run --solver` does); solver_params: its parameters; rel_grad, max_iters: its stop criterion.
     energy_form: "elastic" or "projective", the form of the cloth energy the steps minimize (the pd-* solvers need
         "projective").
-    contact, hierarchy: scene-format dicts of those blocks.
+    contact, cloth_contact, hierarchy: scene-format dicts of those blocks (cloth_contact={} turns cloth contact on
+        with its defaults: cloths collide with themselves, each other and MeshObstacles).
     out: record into this folder as `mgcloth run --out` does (True: the scene's output.dir); formats: the output
         formats ("obj", "glb"); trace: keep every solver iteration (StepStats.trace, trace.csv); resume: continue
         the run recorded in `out` from its checkpoint (pass the same scene and arrays).
@@ -223,7 +244,8 @@ class Simulation(_mgcloth.Simulator):
 
     def __init__(self, scene=None, *, cloths=(), obstacles=(), dt=None, substeps=None, frames=None, gravity=None,
                  threads=None, solver=None, solver_params=None, rel_grad=None, max_iters=None, contact=None,
-                 hierarchy=None, energy_form=None, out=None, formats=None, trace=False, resume=False):
+                 cloth_contact=None, hierarchy=None, energy_form=None, out=None, formats=None, trace=False,
+                 resume=False):
         d, file, base_dir = _resolve_scene(scene)
         if not isinstance(d.get("cloths", []), (list, tuple)) or not isinstance(d.get("obstacles", []), (list, tuple)):
             # The parser names what is wrong; nothing to merge into.
@@ -238,7 +260,8 @@ class Simulation(_mgcloth.Simulator):
         if all_obstacles or "obstacles" in d:
             d["obstacles"] = all_obstacles
         for key, value in (("time_step", dt), ("substeps", substeps), ("frames", frames), ("threads", threads),
-                           ("contact", contact), ("hierarchy", hierarchy), ("energy_form", energy_form)):
+                           ("contact", contact), ("cloth_contact", cloth_contact), ("hierarchy", hierarchy),
+                           ("energy_form", energy_form)):
             if value is not None:
                 d[key] = value
         if gravity is not None:

@@ -253,6 +253,13 @@ void bind_simulator(py::module_& m) {
                              "Wall time of the solve alone, ms.")
       .def_readonly("projected", &sim::StepStats::projected, "Vertices pushed out of obstacles after the solve.")
       .def_readonly("load_factor", &sim::StepStats::load_factor, "Shells: the load factor of the step.")
+      .def_readonly("contact_pairs", &sim::StepStats::contact_pairs,
+                    "Cloth contact: pairs inside the contact layer at the end of the step (-1: no cloth contact).")
+      .def_readonly("min_distance", &sim::StepStats::min_distance,
+                    "Cloth contact: the smallest distance between primitives within reach at the end of the step (m).")
+      .def_readonly("intersections", &sim::StepStats::intersections,
+                    "Cloth contact: triangle pairs the exact checker found intersecting at the end of the step "
+                    "(cloths with cloths and with obstacle meshes; -1: not checked).")
       .def_property_readonly(
           "counters",
           [](const sim::StepStats& s) {

@@ -122,3 +122,24 @@ def test_scene_dict_with_obstacle_objects_and_resolved_scene(small_grid):
     assert resolved["cloths"][0]["mesh"] == {"arrays": {"vertices": 64, "triangles": len(F)}}
     assert resolved["obstacles"][0]["friction"] == 0.5
     assert sim.masses().sum() == pytest.approx(0.25 * 0.08)  # silk: 80 g/m²
+
+
+def test_a_mesh_obstacle_from_an_obj_file_holds_the_cloth(tmp_path):
+    # A 0.3 m square plate in z = 0 (two triangles, no thickness); a cloth falls onto it through cloth contact.
+    (tmp_path / "plate.obj").write_text("v -0.15 -0.15 0\nv 0.15 -0.15 0\nv 0.15 0.15 0\nv -0.15 0.15 0\n"
+                                        "f 1 2 3\nf 1 3 4\n")
+    V, F = mgcloth.grid(0.2, 0.2, 100)
+    V[:, :2] -= 0.1
+    V[:, 2] = 0.03
+    sim = mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F, name="sheet")],
+                             obstacles=[mgcloth.MeshObstacle(tmp_path / "plate.obj", name="plate", friction=0.5)],
+                             cloth_contact={}, dt=1 / 30, rel_grad=1e-3, threads=1)
+    for _ in range(10):
+        stats = sim.step()
+        assert all(s.intersections == 0 for s in stats)
+    assert sim.obstacle_names == ["plate"]
+    assert sim.x[:, 2].min() > 0.0  # on the plate, not through it
+    assert sim.x[:, 2].max() < 0.01
+    assert sim.scene["obstacles"][0]["mesh"] == str(tmp_path / "plate.obj")
+    with pytest.raises(mgcloth.InputError, match="cloth_contact"):
+        mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F)], obstacles=[mgcloth.MeshObstacle(tmp_path / "plate.obj")])

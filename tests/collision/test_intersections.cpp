@@ -94,6 +94,23 @@ TEST(Intersections, TheSameTriangleTwiceOverlapsItself) {
   EXPECT_EQ(count(x, {{0, 1, 2}, {2, 1, 0}}), 1u);
 }
 
+// Obstacle triangles come last: pairs of two of them are not checked, pairs of one with a cloth triangle are.
+TEST(Intersections, PairsOfFixedTrianglesAreNotChecked) {
+  // Triangle 0 (a cloth) crosses triangles 1 and 2 (an obstacle), which cross each other.
+  const VecX x = points({{-1, -1, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 1}, {-1, -1, 0.3},
+                         {0.4, -1, 0.2}, {0.4, 2, 0.2}, {-2, 0.5, -0.5}});
+  const std::vector<Tri> t{{0, 1, 2}, {3, 4, 5}, {6, 7, 8}};
+  size_t all = 0, cloth = 0;
+  find_intersections(x, t, 100, &all);
+  const auto pairs = find_intersections(x, t, 100, &cloth, 1);
+  ASSERT_EQ(all, 3u);
+  EXPECT_EQ(cloth, 2u);
+  for (const TrianglePair& p : pairs) EXPECT_EQ(p.a, 0);
+  size_t none = 0;
+  find_intersections(x, t, 100, &none, 0);
+  EXPECT_EQ(none, 0u);
+}
+
 TEST(Intersections, DegenerateTrianglesAreSkipped) {
   // Triangle 1 is a segment through triangle 0's face; triangle 2 has two coincident corners.
   const VecX x = points({{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0.5, 0.5, -1}, {0.5, 0.5, 0}, {0.5, 0.5, 1}, {0.4, 0.4, 1}});

@@ -10,6 +10,7 @@
 
 #include <fstream>
 #include <iterator>
+#include <map>
 
 namespace mgcloth::mesh {
 namespace {
@@ -265,6 +266,56 @@ TEST(ObjIo, RejectsBadScale) {
   test::TempDir dir;
   const auto path = dir.file("s.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   EXPECT_TRUE(throws_input_error([&] { read_obj(path, 0.0); }, {path.string(), "material_scale"}));
+}
+
+// An obstacle's surface: a closed cube with UV seams (vt differing per face) stays one closed surface numbered by
+// position, polygons are fanned, unused and repeated vertices and zero-area faces are dropped, and what a cloth would
+// refuse (not planar, non-manifold, inconsistently oriented) is accepted.
+TEST(ObjIo, SurfaceOfAClosedCubeWithSeams) {
+  test::TempDir dir;
+  std::string obj = "v 9 9 9\n";  // used by no face
+  for (int i = 0; i < 8; ++i) obj += fmt::format("v {} {} {}\n", i & 1, (i >> 1) & 1, (i >> 2) & 1);
+  obj += "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
+  // Six quads (1-based: vertex i of the loop above is i + 2), each with its own vt: every edge is a UV seam. The
+  // last face winds the wrong way.
+  const int quads[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 5, 7, 3}};
+  for (const auto& q : quads)
+    obj += fmt::format("f {}/1 {}/2 {}/3 {}/4\n", q[0] + 2, q[1] + 2, q[2] + 2, q[3] + 2);
+  obj += "f 2/1 2/2 3/3\n";  // a repeated vertex
+  const auto path = dir.file("cube.obj", obj);
+  const Surface s = read_obj_surface(path);
+  EXPECT_EQ(s.x.cols(), 8);
+  EXPECT_EQ(s.tris.size(), 12u);
+  // Every edge of the 12 cube triangles is shared by exactly two of them: the seams did not split it.
+  std::map<std::pair<Index, Index>, int> edges;
+  for (size_t t = 0; t < 12; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Index a = s.tris[t][k], b = s.tris[t][(k + 1) % 3];
+      ++edges[{std::min(a, b), std::max(a, b)}];
+    }
+  EXPECT_EQ(edges.size(), 18u);
+  for (const auto& [e, n] : edges) EXPECT_EQ(n, 2);
+  // The corners of the cube, each once, at its position in the file.
+  EXPECT_EQ(s.x.col(0), Vec3(0, 0, 0));
+  EXPECT_EQ(s.x.rowwise().maxCoeff(), Vec3(1, 1, 1));
+}
+
+TEST(ObjIo, SurfaceDropsZeroAreaFacesAndRejectsBadFiles) {
+  test::TempDir dir;
+  const auto path = dir.file("sliver.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\nf 1 1 3\n");
+  const Surface s = read_obj_surface(path);
+  ASSERT_EQ(s.tris.size(), 1u);
+  EXPECT_EQ(s.tris[0], (Tri{0, 1, 2}));
+  const auto flat = dir.file("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+  EXPECT_TRUE(throws_input_error([&] { read_obj_surface(flat); }, {flat.string(), "every face has zero area"}));
+  const auto missing = dir.path("nowhere.obj");
+  EXPECT_TRUE(throws_input_error([&] { read_obj_surface(missing); }, {missing.string() + ": cannot open file"}));
+  const auto prose = dir.file("prose.obj", "This is not a mesh.\n");
+  EXPECT_TRUE(throws_input_error([&] { read_obj_surface(prose); }, {prose.string(), "no faces"}));
+  const auto nan = dir.file("nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_TRUE(throws_input_error([&] { read_obj_surface(nan); }, {nan.string(), "line 1"}));
+  const auto range = dir.file("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
+  EXPECT_TRUE(throws_input_error([&] { read_obj_surface(range); }, {range.string(), "line 4", "vertex 7"}));
 }
 
 }  // namespace

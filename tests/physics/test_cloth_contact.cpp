@@ -320,6 +320,136 @@ TEST(ClothContact, LocalUpdatesOfTheCacheKeepEnergyGradientAndStepLimitsExact) {
   EXPECT_GT(limited, 8);  // most patches did reach the sheet below
 }
 
+// Two sheets as in test GradientAndHessianMatchFiniteDifferences, the upper one kinematic (an obstacle mesh): the
+// unknown is the lower sheet alone, and the upper sheet's points follow it as kinematic points.
+struct SheetUnderObstacle {
+  VecX x;                 ///< both sheets, as one unknown
+  VecX lower, upper;      ///< the lower sheet's points (the unknown), the upper's (kinematic)
+  std::vector<ContactSurface> both;  ///< both as cloths
+  std::vector<ContactSurface> split;  ///< the upper one kinematic
+  explicit SheetUnderObstacle(unsigned seed, double gap = 0.5e-3) {
+    both.push_back(sheet("a", 0.02, 16, 0.0, 0, x));
+    both.push_back(sheet("b", 0.02, 16, gap, static_cast<Index>(x.size() / 3), x));
+    // Only the lower sheet is jittered: the upper one stays flat, so that its areas in space (an obstacle's) equal
+    // those in its material (a cloth's), and the two terms below weigh its pairs alike.
+    const Index na = both[1].offset;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-0.15e-3, 0.15e-3);
+    for (Index i = 0; i < 3 * na; ++i) x[i] += u(rng);
+    for (Index i = na; i < x.size() / 3; ++i) x.segment<2>(3 * i) += Vec2(0.0031, 0.0017);
+    lower = x.head(3 * na);
+    upper = x.tail(x.size() - 3 * na);
+    split = both;
+    split[1].kinematic = true;
+    split[1].offset = 0;
+  }
+  Index lower_points() const { return static_cast<Index>(lower.size() / 3); }
+};
+
+// The same pairs, energy, gradient rows and Hessian block as when the obstacle's points were unknowns too, and
+// derivatives that match finite differences of the unknown alone.
+TEST(ClothContact, AKinematicSurfaceActsOnTheClothAsTheSameSurfaceAsAnUnknownWould) {
+  for (unsigned seed : {1u, 2u, 3u}) {
+    SheetUnderObstacle s(seed);
+    ClothContact full(s.both, static_cast<Index>(s.x.size() / 3), ClothContactParams{});
+    ClothContact kin(s.split, s.lower_points(), ClothContactParams{}, s.upper);
+    EXPECT_EQ(kin.num_kinematic(), static_cast<Index>(s.upper.size() / 3));
+    full.update_stencils(s.x);
+    kin.update_stencils(s.lower);
+    EXPECT_GT(kin.stats(s.lower).pairs, 10);
+    EXPECT_EQ(kin.stats(s.lower).pairs, full.stats(s.x).pairs);
+    EXPECT_NEAR(kin.value(s.lower), full.value(s.x), 1e-12 * full.value(s.x));
+    VecX gk = VecX::Zero(s.lower.size()), gf = VecX::Zero(s.x.size());
+    kin.add_gradient(s.lower, gk);
+    full.add_gradient(s.x, gf);
+    EXPECT_LE((gk - gf.head(s.lower.size())).norm(), 1e-12 * gf.norm());
+    std::vector<std::pair<Index, Index>> pk, pf;
+    kin.collect_pattern(pk);
+    full.collect_pattern(pf);
+    linalg::BlockMatrix3 Hk(s.lower_points(), pk), Hf(static_cast<Index>(s.x.size() / 3), pf);
+    kin.bind(Hk);
+    full.bind(Hf);
+    Hk.set_zero();
+    Hf.set_zero();
+    kin.add_hessian(s.lower, Hk, true);
+    full.add_hessian(s.x, Hf, true);
+    const Eigen::MatrixXd Dk(Hk.to_sparse()), Df(Hf.to_sparse());
+    const Index m = s.lower.size();
+    EXPECT_LE((Dk - Df.topLeftCorner(m, m)).norm(), 1e-12 * Df.norm());
+    check_term(kin, s.lower, 1e-5);
+    // The checker sees both sheets, in the numbering of triangles().
+    EXPECT_EQ(kin.with_kinematic(s.lower), s.x);
+    EXPECT_EQ(collision::find_intersections(kin.with_kinematic(s.lower), kin.triangles()).size(), 0u);
+  }
+}
+
+TEST(ClothContact, AKinematicSurfaceNeverTouchesItself) {
+  // A sheet folded onto itself touches itself as a cloth (MaterialSpaceNeighboursAreNotContact); as an obstacle it
+  // does not, and a cloth far from it sees nothing either.
+  VecX y;
+  std::vector<ContactSurface> s{sheet("obstacle", 0.1, 121, 0.0, 0, y, 0.03)};
+  for (Index i = 0; i < y.size() / 3; ++i)
+    if (y[3 * i] > 0.05) {
+      y[3 * i] = 0.1 - y[3 * i];
+      y[3 * i + 2] = 0.01;
+    }
+  s[0].kinematic = true;
+  VecX x;
+  s.insert(s.begin(), sheet("cloth", 0.05, 36, 0.5, 0, x));  // kinematic surfaces come last
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{}, y);
+  EXPECT_EQ(c.stats(x).pairs, 0);
+  EXPECT_EQ(c.value(x), 0.0);
+  VecX down = VecX::Zero(x.size());
+  for (Index i = 0; i < x.size() / 3; ++i) down[3 * i + 2] = -0.4;  // still 7 cm above the fold
+  EXPECT_EQ(c.max_step(x, down, 1.0), 1.0);
+}
+
+TEST(ClothContact, MaxStepStopsAClothBeforeItPassesThroughAnObstacleMesh) {
+  // As MaxStepStopsASheetBeforeItPassesThroughAnother, with the lower sheet an obstacle.
+  VecX y, x;
+  std::vector<ContactSurface> s;
+  s.push_back(sheet("obstacle", 0.05, 36, 0.0, 0, y));
+  s.back().kinematic = true;
+  s.insert(s.begin(), sheet("cloth", 0.05, 36, 0.01, 0, x));  // kinematic surfaces come last
+  for (Index i = 0; i < x.size() / 3; ++i) x.segment<2>(3 * i) += Vec2(0.002, 0.003);
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{}, y);
+  VecX d = VecX::Zero(x.size());
+  for (Index i = 0; i < x.size() / 3; ++i) d[3 * i + 2] = -0.02 * (x[3 * i] - 0.002) / 0.05;
+  const double a = c.max_step(x, d, 1.0);
+  EXPECT_GT(a, 0.3);
+  EXPECT_LT(a, 0.52);
+  EXPECT_EQ(collision::find_intersections(c.with_kinematic(x + a * d), c.triangles()).size(), 0u);
+  EXPECT_GT(collision::find_intersections(c.with_kinematic(x + d), c.triangles()).size(), 0u);
+  EXPECT_TRUE(std::isfinite(c.value(x + a * d)));
+  EXPECT_EQ(c.max_step(x, -d, 1.0), 1.0);
+}
+
+TEST(ClothContact, MaxJointStepStopsAnObstacleMovingIntoAClothUnlessTheClothMovesAlong) {
+  VecX y, x;
+  std::vector<ContactSurface> s;
+  s.push_back(sheet("obstacle", 0.05, 36, -0.01, 0, y));
+  s.back().kinematic = true;
+  s.insert(s.begin(), sheet("cloth", 0.05, 36, 0.0, 0, x));  // kinematic surfaces come last
+  for (Index i = 0; i < x.size() / 3; ++i) x.segment<2>(3 * i) += Vec2(0.002, 0.003);
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{}, y);
+  // The obstacle rises 2 cm, through the cloth at half way: the check stops it where the gap is down to a tenth.
+  VecX up = VecX::Zero(y.size());
+  for (Index i = 0; i < y.size() / 3; ++i) up[3 * i + 2] = 0.02;
+  const VecX still = VecX::Zero(x.size());
+  const double f = c.max_joint_step(x, still, y + up);
+  EXPECT_GT(f, 0.4);
+  EXPECT_LT(f, 0.5);
+  c.set_kinematic_positions(y + f * up);
+  EXPECT_TRUE(std::isfinite(c.value(x)));
+  EXPECT_EQ(collision::find_intersections(c.with_kinematic(x), c.triangles()).size(), 0u);
+  // Carried along, the cloth lets it go all the way; the check starts from where the obstacle is now.
+  VecX carried = VecX::Zero(x.size());
+  for (Index i = 0; i < x.size() / 3; ++i) carried[3 * i + 2] = 0.02;
+  EXPECT_EQ(c.max_joint_step(x, carried, y + f * up + up), 1.0);
+  EXPECT_THROW(c.set_kinematic_positions(VecX::Zero(3)), Error);
+  EXPECT_THROW(c.max_joint_step(x, still, VecX::Zero(3)), Error);
+}
+
 TEST(ClothContact, RejectsBadParameters) {
   VecX x;
   std::vector<ContactSurface> s{sheet("a", 0.03, 25, 0.0, 0, x)};

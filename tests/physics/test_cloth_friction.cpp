@@ -227,6 +227,54 @@ TEST(ClothFriction, SelfContactPairsUseTheClothsOwnCoefficient) {
   EXPECT_EQ(energy(0.0), 0.0);
 }
 
+// The upper sheet of TwoSheets as an obstacle mesh (kinematic points) that slides sideways over the step: it drags
+// the cloth under it with μ times the normal force, and a cloth carried along feels nothing.
+TEST(ClothFriction, AnObstacleMeshDragsTheClothUnderIt) {
+  const double h = 0.01;
+  ClothFrictionParams params;
+  params.friction = 0.4;
+  for (unsigned seed : {1u, 2u}) {
+    TwoSheets t(seed);
+    const Index na = t.surfaces[1].offset;
+    const VecX lower = t.x.head(3 * na), upper = t.x.tail(t.x.size() - 3 * na);
+    std::vector<ContactSurface> split = t.surfaces;
+    split[1].kinematic = true;
+    split[1].offset = 0;
+    ClothContact contact(split, na, ClothContactParams{}, upper);
+    const auto frames = contact.contact_frames(lower);
+    ASSERT_GT(frames.size(), 10u);
+    double sum_mu_lambda = 0.0;
+    for (const auto& f : frames) sum_mu_lambda += params.friction * f.normal_force;
+    const Vec3 slide(2e-5, 0.0, 0.0);  // twice ε_v h: sliding
+    VecX motion(upper.size());
+    for (Index i = 0; i < motion.size() / 3; ++i) motion.segment<3>(3 * i) = slide;
+    ClothFriction f(na, t.names(), params);
+    f.start_step(lower, frames, h, &motion);
+    EXPECT_EQ(f.num_pairs(), static_cast<Index>(frames.size()));
+    VecX g = VecX::Zero(lower.size());
+    f.add_gradient(lower, g);
+    Vec3 force = Vec3::Zero();
+    for (Index i = 0; i < na; ++i) force -= g.segment<3>(3 * i);
+    // Along the slide, at most Σ μλ, and most of it: the sheets are nearly flat, most normals nearly z.
+    EXPECT_GT(force.x(), 0.8 * sum_mu_lambda);
+    EXPECT_LE(force.norm(), sum_mu_lambda * (1 + 1e-9));
+    // Carried along with the obstacle, the cloth has not slid relative to it.
+    VecX carried = lower;
+    for (Index i = 0; i < na; ++i) carried.segment<3>(3 * i) += slide;
+    VecX g2 = VecX::Zero(lower.size());
+    f.add_gradient(carried, g2);
+    EXPECT_LE(g2.norm(), 1e-9 * g.norm());
+    f.update_stencils(lower);
+    check_term(f, lower, 1e-5);
+    // An obstacle that holds still (no motion given) drags nothing at the start point.
+    ClothFriction still(na, t.names(), params);
+    still.start_step(lower, frames, h);
+    VecX g3 = VecX::Zero(lower.size());
+    still.add_gradient(lower, g3);
+    EXPECT_LE(g3.norm(), 1e-12 * g.norm());
+  }
+}
+
 TEST(ClothFriction, RejectsBadCoefficients) {
   const std::vector<std::string> names{"a"};
   for (double bad : {-0.1, std::nan(""), kInf}) {

@@ -306,13 +306,21 @@ TEST(GltfFormat, AFailedFrameReadLeavesNoFile) {
   fs::remove_all(dir);
 }
 
-// Every shape kind tessellated at its size in the obstacle's frame; the plane covers the animated surface.
-TEST(GltfFormat, ObstacleShapesAreTessellatedToSize) {
+namespace {
+/// One triangle rising by 1 m in two frames, beside the obstacles of the tests below.
+sim::SurfaceAnimation rising_triangle() {
   sim::SurfaceAnimation s;
   s.num_vertices = 3;
   s.tris = {{0, 1, 2}};
   s.times = {0.0, 0.5};
   s.positions = {0, 0, 1, 3, 0, 1, 0, 3, 1, /* frame 1 */ 0, 0, 2, 3, 0, 2, 0, 3, 2};
+  return s;
+}
+}  // namespace
+
+// Every shape kind tessellated at its size in the obstacle's frame; the plane covers the animated surface.
+TEST(GltfFormat, ObstacleShapesAreTessellatedToSize) {
+  sim::SurfaceAnimation s = rising_triangle();
   std::vector<geometry::Obstacle> obstacles(4);
   obstacles[0].name = "floor";
   obstacles[0].shape = std::make_shared<geometry::Plane>();
@@ -359,6 +367,34 @@ TEST(GltfFormat, ObstacleShapesAreTessellatedToSize) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
   }
+  fs::remove(file);
+}
+// A mesh obstacle is written as its own mesh, in its frame, its node placed by its pose, with a normal per vertex.
+TEST(GltfFormat, MeshObstaclesAreWrittenAsTheirMesh) {
+  const sim::SurfaceAnimation s = rising_triangle();
+  std::vector<geometry::Obstacle> obstacles(1);
+  obstacles[0].name = "tent";
+  auto surface = std::make_shared<geometry::TriangleSurface>();
+  surface->vertices.resize(3, 4);
+  surface->vertices << 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;  // a corner of a tetrahedron and its three edges
+  surface->tris = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}};
+  obstacles[0].mesh = surface;
+  const geometry::Pose placed{Eigen::Quaterniond::Identity(), Vec3(1.0, 2.0, 3.0)};
+  obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(placed, Vec3::Zero(), Vec3::Zero());
+  const fs::path file = fs::temp_directory_path() / ("mgcloth_gltf_mesh_obstacle_" + std::to_string(::getpid()) + ".glb");
+  sim::write_glb(file, s, obstacles);
+  const auto m = load_glb(file);
+  const auto& node = m.nodes.at(node_named(m, "tent"));
+  const auto& primitive = m.meshes.at(node.mesh).primitives.at(0);
+  const auto& positions = m.accessors.at(primitive.attributes.at("POSITION"));
+  EXPECT_EQ(positions.count, 4u);
+  EXPECT_EQ(m.accessors.at(primitive.attributes.at("NORMAL")).count, 4u);
+  EXPECT_EQ(m.accessors.at(primitive.indices).count, 9u);
+  EXPECT_EQ(positions.maxValues, (std::vector<double>{1, 1, 1}));
+  ASSERT_EQ(node.translation.size(), 3u);
+  EXPECT_NEAR(node.translation[2], 3.0, 1e-6);
+  // The size check of the recorder counts it as written.
+  EXPECT_GT(sim::glb_binary_bytes(3, 1, true, 1, obstacles), sim::glb_binary_bytes(3, 1, true, 1, {}));
   fs::remove(file);
 }
 #else

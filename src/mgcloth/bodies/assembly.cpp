@@ -2,6 +2,8 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/physics/sub_objective.hpp>
 
+#include <cmath>
+
 namespace mgcloth::bodies {
 
 /// The joint hierarchy and what it points to.
@@ -89,15 +91,88 @@ VecX Assembly::prepare_step(const StepTime& step) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
     const VecX d = out - from;
     m_contact->reset_near();
-    out = from + objective().max_step(from, d, 1.0) * d;
-    m_contact->start_step(out);
-    // Friction is lagged at the state the step starts from, so that u/h is the relative tangential velocity.
-    if (m_friction) m_friction->start_step(from, m_contact->contact_frames(from), step.h);
+    if (m_meshes.empty()) {
+      out = from + objective().max_step(from, d, 1.0) * d;
+      m_contact->start_step(out);
+      // Friction is lagged at the state the step starts from, so that u/h is the relative tangential velocity.
+      if (m_friction) m_friction->start_step(from, m_contact->contact_frames(from), step.h);
+    } else {
+      // Friction's frames at the start, where the obstacles still are.
+      std::vector<physics::ClothContact::ContactFrame> frames;
+      if (m_friction) frames = m_contact->contact_frames(from);
+      // The obstacles move with the cloths' prediction (which, for cloth resting on a moving body, carries it
+      // along); where the joint motion would collide, both stop there, and advance_obstacles goes on after a solve.
+      const VecX y0 = m_contact->kinematic_positions();
+      m_mesh_target = obstacle_positions(step.t + step.h);
+      const double a = m_contact->max_joint_step(from, d, m_mesh_target);
+      m_contact->set_kinematic_positions(a < 1.0 ? VecX(y0 + a * (m_mesh_target - y0)) : m_mesh_target);
+      m_behind = a < 1.0;
+      out = from + a * d;
+      m_contact->start_step(out);
+      if (m_friction) {
+        const VecX motion = m_mesh_target - y0;
+        m_friction->start_step(from, frames, step.h, &motion);
+      }
+    }
   }
   return out;
 }
 
-void Assembly::add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness) {
+VecX Assembly::obstacle_positions(double t) const {
+  Index size = 0;
+  for (const geometry::Obstacle& o : m_meshes) size += 3 * o.mesh->vertices.cols();
+  VecX out(size);
+  Index k = 0;
+  for (const geometry::Obstacle& o : m_meshes) {
+    const VecX y = o.mesh_positions(t);
+    out.segment(k, y.size()) = y;
+    k += y.size();
+  }
+  return out;
+}
+
+void Assembly::place_obstacles(double t) {
+  if (m_meshes.empty()) return;
+  m_contact->set_kinematic_positions(obstacle_positions(t));
+  m_behind = false;
+}
+
+double Assembly::advance_obstacles(VecX& x) {
+  if (!m_behind) return 1.0;
+  // Cloth in the layer of an obstacle is carried along with the obstacle's nearest point, so that the obstacle
+  // pushes it rather than closing in on it a fraction of the gap per solve; the rest of the cloth stays. The joint
+  // motion is checked as a whole, and the solve that follows settles the cloth.
+  const Index n = num_points();
+  const VecX& y = m_contact->kinematic_positions();
+  VecX dx = VecX::Zero(x.size());
+  VecX count = VecX::Zero(n);
+  for (const auto& f : m_contact->contact_frames(x)) {
+    Vec3 moved = Vec3::Zero();
+    double weight = 0.0;
+    for (size_t i = 0; i < 4; ++i)
+      if (f.v[i] >= n) {
+        const Index k = f.v[i] - n;
+        moved += std::abs(f.c[i]) * (m_mesh_target.segment<3>(3 * k) - y.segment<3>(3 * k));
+        weight += std::abs(f.c[i]);
+      }
+    if (!(weight > 0.0)) continue;  // a pair between cloths
+    for (size_t i = 0; i < 4; ++i)
+      if (f.v[i] < n) {
+        dx.segment<3>(3 * f.v[i]) += moved / weight;
+        count[f.v[i]] += 1.0;
+      }
+  }
+  for (Index i = 0; i < n; ++i)
+    if (count[i] > 0.0) dx.segment<3>(3 * i) /= count[i];
+  const double a = m_contact->max_joint_step(x, dx, m_mesh_target);
+  x += a * dx;
+  m_contact->set_kinematic_positions(a < 1.0 ? VecX(y + a * (m_mesh_target - y)) : m_mesh_target);
+  m_behind = a < 1.0;
+  return a;
+}
+
+void Assembly::add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness,
+                                 std::vector<geometry::Obstacle> meshes, double t0) {
   if (m_contact) throw_error("Assembly: cloth contact added twice");
   if (thickness.size() != m_bodies.size()) throw_error("Assembly: {} thicknesses for {} bodies", thickness.size(), m_bodies.size());
   std::vector<physics::ContactSurface> surfaces;
@@ -109,7 +184,29 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
     m_bodies[b]->set_obstacle_projection(false);
   }
   if (surfaces.empty()) return;
-  auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params);
+  VecX kinematic;
+  Index points = 0;
+  for (const geometry::Obstacle& o : meshes) {
+    if (!o.mesh) throw_error("Assembly: obstacle \"{}\" has no mesh", o.name);
+    physics::ContactSurface s;
+    s.name = o.name;
+    s.offset = points;
+    s.tris = o.mesh->tris;
+    s.kinematic = true;
+    s.thickness = o.contact_thickness;
+    // Rigid motions keep areas: the lumped areas in the obstacle's frame are those in the world.
+    const Mat3X& v = o.mesh->vertices;
+    s.area = VecX::Zero(v.cols());
+    for (const Tri& t : s.tris) {
+      const double a = 0.5 * (v.col(t[1]) - v.col(t[0])).cross(v.col(t[2]) - v.col(t[0])).norm() / 3.0;
+      for (Index i : t) s.area[i] += a;
+    }
+    points += v.cols();
+    surfaces.push_back(std::move(s));
+  }
+  m_meshes = std::move(meshes);
+  if (!m_meshes.empty()) kinematic = obstacle_positions(t0);
+  auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params, std::move(kinematic));
   m_contact = term.get();
   add_coupling(std::move(term));
 }

@@ -1,5 +1,6 @@
 #pragma once
 #include <mgcloth/bodies/body.hpp>
+#include <mgcloth/geometry/obstacle.hpp>
 #include <mgcloth/linalg/stencil_table.hpp>
 #include <mgcloth/physics/cloth_friction.hpp>
 
@@ -38,7 +39,22 @@ class Assembly {
   /// `thickness` per body), as one term of the group's objective: the body's own objective for a group of one body,
   /// else a coupling term of the joint one. Obstacle projections are turned off (Body::set_obstacle_projection) and
   /// the start point of every step is limited to an intersection-free motion from the current state.
-  void add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness);
+  /// Mesh obstacles (`meshes`, each with its contact_thickness resolved) join the term as kinematic surfaces, placed
+  /// at their poses at time t0.
+  void add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness,
+                         std::vector<geometry::Obstacle> meshes = {}, double t0 = 0.0);
+  /// The mesh obstacles of the contact term, in its kinematic order.
+  const std::vector<geometry::Obstacle>& mesh_obstacles() const { return m_meshes; }
+  /// Puts the mesh obstacles at their poses at time t (a state set from outside, as on --resume).
+  void place_obstacles(double t);
+  /// Whether the mesh obstacles are short of their poses at the end of the prepared step: the start point's motion
+  /// could take them only part of the way without a collision (prepare_step). The solve then pushes the cloth
+  /// back, and advance_obstacles takes them further from its result.
+  bool obstacles_behind() const { return m_behind; }
+  /// Moves the mesh obstacles from where they are towards their poses at the end of the step as far as the cloths
+  /// at x allow, carrying the cloth inside their contact layer along (x changes); returns the fraction of the
+  /// remaining way they went.
+  double advance_obstacles(VecX& x);
   /// The cloth contact term; null without one.
   const physics::ClothContact* cloth_contact() const { return m_contact; }
   /// Lagged friction between the cloths of the contact term (add_cloth_contact first), frozen at every step's start
@@ -67,6 +83,11 @@ class Assembly {
 
   physics::ClothContact* m_contact = nullptr;
   physics::ClothFriction* m_friction = nullptr;
+  /// The mesh obstacles' vertices at their poses at time t, in the contact term's kinematic order.
+  VecX obstacle_positions(double t) const;
+  std::vector<geometry::Obstacle> m_meshes;
+  VecX m_mesh_target;    ///< the kinematic points at the end of the prepared step
+  bool m_behind = false;
   std::vector<std::unique_ptr<physics::Term>> m_pending;  ///< coupling terms until the joint objective exists
 };
 

@@ -54,6 +54,15 @@ std::vector<Index> select_pins(const PinSpec& p, const mesh::TriMesh& m, const s
   return out;
 }
 
+/// The obstacles a cloth's own penalty acts on: those of a signed-distance shape. Mesh obstacles touch cloth through
+/// the cloth-contact term (bodies::Assembly::add_cloth_contact).
+std::vector<geometry::Obstacle> shape_obstacles(const std::vector<geometry::Obstacle>& all) {
+  std::vector<geometry::Obstacle> out;
+  for (const auto& o : all)
+    if (o.shape) out.push_back(o);
+  return out;
+}
+
 }  // namespace
 
 ClothBody::ClothBody(const ClothSpec& spec, const ClothEnvironment& env, const mesh::TriMesh* mesh)
@@ -63,7 +72,7 @@ ClothBody::ClothBody(const ClothSpec& spec, const ClothEnvironment& env, const m
       m_material(spec.material),
       m_gravity(env.gravity),
       m_seam_stiffness(spec.seam_stiffness),
-      m_obstacles(env.obstacles),
+      m_obstacles(shape_obstacles(env.obstacles)),
       m_contact_params(env.contact),
       m_hierarchy_params(env.hierarchy),
       m_projective(env.energy_form == physics::EnergyForm::Projective),

@@ -65,7 +65,7 @@ bool intersect_beyond_shared(const Tri& ta, const std::array<Point, 3>& A, const
 }  // namespace
 
 std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tri>& triangles, size_t max_pairs,
-                                             size_t* count) {
+                                             size_t* count, size_t fixed_from) {
   const Index points = static_cast<Index>(x.size() / 3);
   const Index n = static_cast<Index>(triangles.size());
   std::vector<std::array<Point, 3>> corners(n);
@@ -99,6 +99,7 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
   CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), [&](const Box& p, const Box& q) {
     const Index a = static_cast<Index>(p.handle() - triangles.data()),
                 b = static_cast<Index>(q.handle() - triangles.data());
+    if (static_cast<size_t>(std::min(a, b)) >= fixed_from) return;
     candidates.push_back({std::min(a, b), std::max(a, b)});
   });
 

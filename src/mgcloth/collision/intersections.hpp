@@ -2,6 +2,7 @@
 #include <mgcloth/core/types.hpp>
 
 #include <array>
+#include <limits>
 #include <vector>
 
 namespace mgcloth::collision {
@@ -16,8 +17,11 @@ struct TrianglePair {
 /// box intersection as the broad phase, so that it shares nothing with the contact code. Triangles that share a
 /// vertex or an edge touch there by construction; they count as intersecting only where they also cross elsewhere
 /// (an edge of one passing through the other away from the shared part). Degenerate (zero-area) triangles are
-/// skipped. At most `max_pairs` pairs are returned (the count of all is `count`, if non-null).
+/// skipped. At most `max_pairs` pairs are returned (the count of all is `count`, if non-null). Pairs of two triangles
+/// at or after `fixed_from` are not checked: obstacle meshes come last, and whether an obstacle crosses itself or
+/// another obstacle is no question of the cloth's guarantee.
 std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tri>& triangles, size_t max_pairs = 100,
-                                             size_t* count = nullptr);
+                                             size_t* count = nullptr,
+                                             size_t fixed_from = std::numeric_limits<size_t>::max());
 
 }  // namespace mgcloth::collision

@@ -1,7 +1,29 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/geometry/obstacle.hpp>
 
+#include <algorithm>
+#include <cmath>
+
 namespace mgcloth::geometry {
+
+Mat3X TriangleSurface::at(double t) const {
+  if (frames.size() < 2 || !(rate > 0.0)) return frames.empty() ? vertices : frames.front();
+  const double n = static_cast<double>(frames.size());
+  double s = std::max(t, 0.0) * rate;
+  // A loop of n frames has period n / rate: after the last frame comes the first again.
+  if (loop) s = std::fmod(s, n);
+  else if (s >= n - 1.0) return frames.back();
+  const auto k = std::min(static_cast<size_t>(s), frames.size() - 1);
+  const double w = s - static_cast<double>(k);
+  return (1.0 - w) * frames[k] + w * frames[(k + 1) % frames.size()];
+}
+
+VecX TriangleSurface::placed(const Pose& pose, double t) const {
+  const Mat3X v = at(t);
+  VecX out(3 * v.cols());
+  for (Index i = 0; i < v.cols(); ++i) out.segment<3>(3 * i) = pose.to_world(v.col(i));
+  return out;
+}
 
 SdfSample Obstacle::sdf(const Vec3& p, double t) const { return sdf(p, motion ? motion->pose(t) : Pose{}); }
 

@@ -302,16 +302,24 @@ Mat2X flatten_planar(const Mat3X& x, const std::vector<Tri>& tris, const std::st
 }
 
 
-TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool check) {
-  const std::string source = path.string();
-  if (!(material_scale > 0.0) || !std::isfinite(material_scale))
-    throw_input_error("{}: material_scale must be positive and finite (got {})", source, material_scale);
-  const std::string text = read_file(path);  // InputError "<path>: cannot open file"
+namespace {
+
+/// The file's text, checked, and what tinyobjloader read of it.
+struct LoadedObj {
+  std::string text;
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+};
+
+LoadedObj load_obj(const std::filesystem::path& path, const std::string& source) {
+  LoadedObj obj;
+  obj.text = read_file(path);  // InputError "<path>: cannot open file"
+  const std::string& text = obj.text;
   // tinyobjloader reads what it cannot parse as 0, pads short statements and truncates face indices: check first.
   check_obj_statements(text, source);
 
-  tinyobj::attrib_t attrib;
-  std::vector<tinyobj::shape_t> shapes;
+  tinyobj::attrib_t& attrib = obj.attrib;
+  std::vector<tinyobj::shape_t>& shapes = obj.shapes;
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
   std::istringstream stream(text);
@@ -329,9 +337,19 @@ TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool 
     throw_input_error("{}: {}", source, first.empty() ? "cannot parse" : first);
   }
   check_warnings(warn, source);
+  return obj;
+}
 
+}  // namespace
+
+TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool check) {
+  const std::string source = path.string();
+  if (!(material_scale > 0.0) || !std::isfinite(material_scale))
+    throw_input_error("{}: material_scale must be positive and finite (got {})", source, material_scale);
+  const LoadedObj obj = load_obj(path, source);
+  const tinyobj::attrib_t& attrib = obj.attrib;
   const Index num_v = static_cast<Index>(attrib.vertices.size() / 3);
-  const Faces faces = collect_faces(attrib, shapes, text, source);
+  const Faces faces = collect_faces(attrib, obj.shapes, obj.text, source);
 
   TriMesh mesh;
   std::vector<Index> corner_vertex, vertex_vt;
@@ -355,6 +373,49 @@ TriMesh read_obj(const std::filesystem::path& path, double material_scale, bool 
   }
   if (check) validate(mesh, source);
   return mesh;
+}
+
+Surface read_obj_surface(const std::filesystem::path& path) {
+  const std::string source = path.string();
+  const LoadedObj obj = load_obj(path, source);
+  const tinyobj::attrib_t& attrib = obj.attrib;
+  const Index num_v = static_cast<Index>(attrib.vertices.size() / 3);
+  Faces faces = collect_faces(attrib, obj.shapes, obj.text, source);
+  // A surface is numbered by position alone: texture coordinates would split it at its UV seams.
+  std::vector<Index> vertex(static_cast<size_t>(num_v), -1);
+  std::vector<Index> used;
+  for (Corner& c : faces.corners) {
+    Index& v = vertex[static_cast<size_t>(c.v)];
+    if (v < 0) {
+      v = static_cast<Index>(used.size());
+      used.push_back(c.v);
+    }
+    c = {v, -1};
+  }
+  Surface out;
+  out.x.resize(3, static_cast<Index>(used.size()));
+  for (size_t i = 0; i < used.size(); ++i)
+    for (int c = 0; c < 3; ++c) out.x(c, static_cast<Index>(i)) = attrib.vertices[3 * static_cast<size_t>(used[i]) + c];
+  // Near-collinear corners, relative to the longest edge: a triangle that covers nothing has no place in the contact
+  // pairs, whose nearest-feature classification assumes a proper triangle.
+  constexpr double kCollinear = 1e-10;
+  Index dropped = 0, first_dropped = -1;
+  for (Index f = 0; f < faces.size(); ++f)
+    for (Index c = faces.offsets[f] + 1; c + 1 < faces.offsets[f + 1]; ++c) {
+      const Tri t{faces.corners[faces.offsets[f]].v, faces.corners[c].v, faces.corners[c + 1].v};
+      const Vec3 a = out.x.col(t[0]), b = out.x.col(t[1]), d = out.x.col(t[2]);
+      const double longest = std::max({(b - a).squaredNorm(), (d - b).squaredNorm(), (a - d).squaredNorm()});
+      if (!((b - a).cross(d - a).norm() > kCollinear * longest)) {
+        if (dropped++ == 0) first_dropped = f;
+        continue;
+      }
+      out.tris.push_back(t);
+    }
+  if (out.tris.empty()) throw_input_error("{}: every face has zero area", source);
+  if (dropped > 0)
+    logger().warn("{}: {} face{} of zero area (or repeating a vertex) dropped, the first at {}", source, dropped,
+                  dropped == 1 ? "" : "s", face_location(obj.text, first_dropped));
+  return out;
 }
 
 void write_obj(const std::filesystem::path& path, const TriMesh& mesh, const Mat3X& x, double material_scale) {

@@ -37,6 +37,21 @@ void check_obj_statements(std::string_view text, const std::string& source);
 /// false, a non-planar mesh without vt is an error, as it has no material coordinates at all.
 TriMesh read_obj(const std::filesystem::path& path, double material_scale = 1.0, bool check = true);
 
+/// A triangle surface in world space without material coordinates: an obstacle's mesh.
+struct Surface {
+  Mat3X x;
+  std::vector<Tri> tris;
+};
+
+/// Reads an OBJ as a world-space surface (an obstacle). Vertices are the `v` statements in the order faces first use
+/// them (`v` lines no face uses are dropped); texture coordinates and normals are ignored, so a closed mesh with UV
+/// seams stays closed; polygons are fanned from their first corner. Syntax and indices are checked as read_obj
+/// checks them (errors name the file and line). Faces of zero area (corners collinear to 1e-10 of the longest edge,
+/// or a repeated vertex) cover nothing and are dropped with a warning naming the first one's line. Open boundaries,
+/// non-manifold edges, inconsistent orientation and self-intersections are accepted: contact with an obstacle
+/// uses unsigned distances to its triangles and edges, which none of them disturbs.
+Surface read_obj_surface(const std::filesystem::path& path);
+
 /// Writes positions `x` (3 x N, may differ from mesh.x) with the mesh's material coordinates as `vt` (divided by
 /// `material_scale`), atomically (temp file + rename). Numbers are written in the shortest form that a correctly
 /// rounding parser reads back as the same double (tinyobjloader's parser is within a few ulps); faces as

@@ -49,17 +49,22 @@ Vec3 lift(const Mat2X& u, Index i) { return Vec3(u(0, i), u(1, i), 0.0); }
 
 }  // namespace
 
-ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params)
-    : m_surfaces(std::move(surfaces)), m_n(num_points), m_params(params) {
+ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params,
+                           VecX kinematic_positions)
+    : m_surfaces(std::move(surfaces)), m_n(num_points), m_y(std::move(kinematic_positions)), m_params(params) {
   if (!(params.stiffness > 0.0) || !std::isfinite(params.stiffness))
     throw_input_error("cloth contact: stiffness must be positive and finite (got {})", params.stiffness);
   if (!(params.barrier_fraction > 0.0 && params.barrier_fraction <= 1.0))
     throw_input_error("cloth contact: barrier_fraction must be in (0, 1] (got {})", params.barrier_fraction);
   if (!(params.ccd_separation > 0.0 && params.ccd_separation < 1.0))
     throw_input_error("cloth contact: ccd_separation must be in (0, 1) (got {})", params.ccd_separation);
-  m_surface_of_point.assign(static_cast<size_t>(m_n), -1);
-  m_point_area = VecX::Zero(m_n);
-  m_point_r = VecX::Zero(m_n);
+  if (m_y.size() % 3 != 0) throw_error("cloth contact: {} kinematic coordinates are not points", m_y.size());
+  if (!m_y.allFinite()) throw_input_error("cloth contact: a kinematic point is not finite");
+  m_m = static_cast<Index>(m_y.size() / 3);
+  m_all = m_n + m_m;
+  m_surface_of_point.assign(static_cast<size_t>(m_all), -1);
+  m_point_area = VecX::Zero(m_all);
+  m_point_r = VecX::Zero(m_all);
   std::vector<Tri> tris;
   for (size_t s = 0; s < m_surfaces.size(); ++s) {
     const ContactSurface& c = m_surfaces[s];
@@ -68,15 +73,23 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
     m_max_r = std::max(m_max_r, c.thickness);
     m_min_r = std::min(m_min_r, c.thickness);
     m_triangle_start.push_back(static_cast<Index>(tris.size()));
+    if (!c.kinematic && s > 0 && m_surfaces[s - 1].kinematic)
+      throw_error("cloth contact: cloth \"{}\" follows a kinematic surface (they come last)", c.name);
+    if (!c.kinematic) m_cloth_triangles = tris.size() + c.tris.size();
     const Index np = static_cast<Index>(c.area.size());
-    if (c.offset < 0 || c.offset + np > m_n || c.material.cols() != np)
-      throw_error("cloth contact: surface \"{}\" does not fit the unknown", c.name);
+    if (c.offset < 0 || c.offset + np > (c.kinematic ? m_m : m_n) || (!c.kinematic && c.material.cols() != np))
+      throw_error("cloth contact: surface \"{}\" does not fit the {}", c.name,
+                  c.kinematic ? "kinematic points" : "unknown");
+    const Index first = start(c);
+    for (const Tri& t : c.tris)
+      for (Index v : t)
+        if (v < 0 || v >= np) throw_error("cloth contact: a triangle of surface \"{}\" has point {} of {}", c.name, v, np);
     for (Index i = 0; i < np; ++i) {
-      m_surface_of_point[c.offset + i] = static_cast<Index>(s);
-      m_point_area[c.offset + i] = c.area[i];
-      m_point_r[c.offset + i] = c.thickness;
+      m_surface_of_point[first + i] = static_cast<Index>(s);
+      m_point_area[first + i] = c.area[i];
+      m_point_r[first + i] = c.thickness;
     }
-    for (const Tri& t : c.tris) tris.push_back({t[0] + c.offset, t[1] + c.offset, t[2] + c.offset});
+    for (const Tri& t : c.tris) tris.push_back({t[0] + first, t[1] + first, t[2] + first});
   }
   m_triangle_start.push_back(static_cast<Index>(tris.size()));
   m_topology = collision::make_surface_topology(std::move(tris));
@@ -87,11 +100,14 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
   m_edge_area = VecX::Zero(static_cast<Index>(m_topology.edges.size()));
   for (size_t s = 0; s < m_surfaces.size(); ++s) {
     const ContactSurface& c = m_surfaces[s];
+    const Index first = start(c);
+    // A cloth's areas are its material's; an obstacle's, its surface's where it starts.
+    const auto corner = [&](Index v) { return c.kinematic ? at(m_y, c.offset + v) : lift(c.material, v); };
     for (const Tri& t : c.tris) {
-      const Vec3 a = lift(c.material, t[0]), b = lift(c.material, t[1]), d = lift(c.material, t[2]);
+      const Vec3 a = corner(t[0]), b = corner(t[1]), d = corner(t[2]);
       const double area = 0.5 * (b - a).cross(d - a).norm();
       for (int k = 0; k < 3; ++k) {
-        Index i = t[k] + c.offset, j = t[(k + 1) % 3] + c.offset;
+        Index i = t[k] + first, j = t[(k + 1) % 3] + first;
         if (i > j) std::swap(i, j);
         m_edge_area[edge_index.at({i, j})] += area / 3.0;
       }
@@ -102,12 +118,14 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
   m_delta = 0.25 * m_max_r;
   double edge_sum = 0.0;
   Index edge_count = 0;
+  // The pieces measure the cloths' motion: obstacles hold still within a solve.
   for (const ContactSurface& c : m_surfaces)
-    for (const Tri& t : c.tris)
-      for (int k = 0; k < 3; ++k) {
-        edge_sum += (lift(c.material, t[(k + 1) % 3]) - lift(c.material, t[k])).norm();
-        ++edge_count;
-      }
+    if (!c.kinematic)
+      for (const Tri& t : c.tris)
+        for (int k = 0; k < 3; ++k) {
+          edge_sum += (lift(c.material, t[(k + 1) % 3]) - lift(c.material, t[k])).norm();
+          ++edge_count;
+        }
   // Pieces of one mesh spacing: on the 40K layered drape (9 steps, 1 thread) 0.84× the time and 0.88× the peak
   // memory of checking each step whole (bench/RESULTS.md).
   if (edge_count > 0) m_sweep_length = std::max(edge_sum / edge_count, m_max_r);
@@ -115,6 +133,34 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
 }
 
 ClothContact::~ClothContact() = default;
+
+const VecX& ClothContact::extended(const VecX& x) const {
+  if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
+  if (m_m == 0) return x;
+  m_extended.resize(3 * m_all);
+  m_extended.head(3 * m_n) = x;
+  m_extended.tail(3 * m_m) = m_y;
+  return m_extended;
+}
+
+VecX ClothContact::with_kinematic(const VecX& x) const { return extended(x); }
+
+void ClothContact::set_kinematic_positions(const VecX& y) {
+  if (y.size() != 3 * m_m) throw_error("cloth contact: {} kinematic coordinates for {} points", y.size(), m_m);
+  if (!y.allFinite()) throw_input_error("cloth contact: a kinematic point is not finite");
+  // The cache checks its cover of every point it is asked about, the kinematic ones included: nothing to reset.
+  m_y = y;
+}
+
+double ClothContact::max_joint_step(const VecX& x, const VecX& dx, const VecX& y_end) const {
+  if (dx.size() != 3 * m_n || y_end.size() != 3 * m_m)
+    throw_error("cloth contact: a joint motion of {} and {} coordinates for {} and {} points", dx.size(), y_end.size(),
+                m_n, m_m);
+  VecX X = extended(x), step(3 * m_all);
+  step.head(3 * m_n) = dx;
+  step.tail(3 * m_m) = y_end - m_y;
+  return max_extended_step(X, step, 1.0);
+}
 
 std::pair<size_t, Index> ClothContact::triangle_owner(Index t) const {
   const auto it = std::upper_bound(m_triangle_start.begin(), m_triangle_start.end(), t);
@@ -191,7 +237,7 @@ std::vector<Index> ClothContact::escaped(const VecX& x, Vec3& c, double& t) cons
   const double ss = m_near_step.squaredNorm();
   t = ss > 0.0 ? std::clamp(((X - B).colwise() - c).cwiseProduct(S).sum() / ss, 0.0, 1.0) : 0.0;
   std::vector<Index> out;
-  for (Index i = 0; i < m_n; ++i)
+  for (Index i = 0; i < m_all; ++i)
     if ((X.col(i) - B.col(i) - c - t * S.col(i)).squaredNorm() > m_delta * m_delta) out.push_back(i);
   return out;
 }
@@ -204,13 +250,13 @@ bool ClothContact::near_valid(const VecX& x) const {
 }
 
 void ClothContact::ensure_near(const VecX& x) const {
-  if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
+  if (x.size() != 3 * m_all) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_all);
   if (m_near_base.size() != x.size()) return rebuild_near(x, nullptr);
   Vec3 c;
   double t;
   const std::vector<Index> out = escaped(x, c, t);
   if (out.empty()) return;
-  if (static_cast<double>(out.size()) > kLocalUpdateFraction * static_cast<double>(m_n)) return rebuild_near(x, nullptr);
+  if (static_cast<double>(out.size()) > kLocalUpdateFraction * static_cast<double>(m_all)) return rebuild_near(x, nullptr);
   update_near(x, out, c, t);
 }
 
@@ -222,7 +268,7 @@ void ClothContact::update_near(const VecX& x, const std::vector<Index>& moved, c
   auto B = as_columns(m_near_base);
   const auto S = as_columns(static_cast<const VecX&>(m_near_step));
   const auto X = as_columns(x);
-  std::vector<char> mark(static_cast<size_t>(m_n), 0);
+  std::vector<char> mark(static_cast<size_t>(m_all), 0);
   for (Index i : moved) {
     B.col(i) = X.col(i) - c - t * S.col(i);
     mark[static_cast<size_t>(i)] = 1;
@@ -296,6 +342,7 @@ void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
   const bool moving = rel.squaredNorm() > 0.0;
   parallel_for(nvt + nee, [&](Index k) {
     const Pair p = candidate_pair(m_candidates, k);
+    if (kinematic_only(p)) return;
     // At a covered point, relative to the pair's first point, each point i has moved by t(s_i − s_0) + e_i, so each
     // side's distance drops by at most its largest |s_i − s_0| plus δ.
     const int split = p.edge_edge ? 2 : 1;
@@ -361,14 +408,16 @@ std::vector<Index> ClothContact::active(const VecX& x) const {
   return out;
 }
 
-double ClothContact::value(const VecX& x) const {
+double ClothContact::value(const VecX& x_unknown) const {
+  const VecX& x = extended(x_unknown);
   const std::vector<Index> act = active(x);
   return parallel_sum(static_cast<Index>(act.size()), [&](Index k) {
     return pair_energy(m_near[static_cast<size_t>(act[static_cast<size_t>(k)])], x, nullptr, nullptr, false);
   });
 }
 
-void ClothContact::add_gradient(const VecX& x, VecX& g) const {
+void ClothContact::add_gradient(const VecX& x_unknown, VecX& g) const {
+  const VecX& x = extended(x_unknown);
   const std::vector<Index> act = active(x);
   std::vector<Vec12> ge(act.size());
   parallel_for(static_cast<Index>(act.size()), [&](Index k) {
@@ -376,11 +425,13 @@ void ClothContact::add_gradient(const VecX& x, VecX& g) const {
   });
   for (size_t k = 0; k < act.size(); ++k) {
     const Pair& p = m_near[static_cast<size_t>(act[k])];
-    for (int a = 0; a < 4; ++a) g.segment<3>(3 * p.v[a]) += ge[k].segment<3>(3 * a);
+    for (int a = 0; a < 4; ++a)
+      if (p.v[a] < m_n) g.segment<3>(3 * p.v[a]) += ge[k].segment<3>(3 * a);
   }
 }
 
-void ClothContact::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
+void ClothContact::add_hessian(const VecX& x_unknown, linalg::BlockMatrix3& H, bool project_psd) const {
+  const VecX& x = extended(x_unknown);
   const std::vector<Index> act = active(x);
   std::vector<Mat12> He(act.size());
   parallel_for(static_cast<Index>(act.size()), [&](Index k) {
@@ -393,23 +444,30 @@ void ClothContact::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool proj
       throw_error("cloth contact: an active pair is missing from the Hessian's pattern (update_stencils not called)");
     const auto& slots = m_slots[static_cast<size_t>(it - m_stencils.begin())];
     for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) H.block(slots[4 * a + b]) += He[k].block<3, 3>(3 * a, 3 * b);
+      for (int b = 0; b < 4; ++b)
+        if (slots[4 * a + b] >= 0) H.block(slots[4 * a + b]) += He[k].block<3, 3>(3 * a, 3 * b);
   }
 }
 
 void collect_stencil_pattern(const std::vector<std::array<Index, 4>>& stencils,
-                             std::vector<std::pair<Index, Index>>& pairs) {
+                             std::vector<std::pair<Index, Index>>& pairs, Index unknown_points) {
   for (const auto& s : stencils)
     for (Index a : s)
-      for (Index b : s) pairs.emplace_back(a, b);
+      for (Index b : s)
+        if (a < unknown_points && b < unknown_points) pairs.emplace_back(a, b);
 }
 
 std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<Index, 4>>& stencils,
-                                                 const linalg::BlockMatrix3& pattern, const char* what) {
+                                                 const linalg::BlockMatrix3& pattern, const char* what,
+                                                 Index unknown_points) {
   std::vector<std::array<Index, 16>> out(stencils.size());
   for (size_t k = 0; k < stencils.size(); ++k)
     for (size_t a = 0; a < 4; ++a)
       for (size_t b = 0; b < 4; ++b) {
+        if (stencils[k][a] >= unknown_points || stencils[k][b] >= unknown_points) {
+          out[k][4 * a + b] = -1;
+          continue;
+        }
         const Index slot = pattern.find(stencils[k][a], stencils[k][b]);
         if (slot < 0) throw_error("{}: stencil block missing from the pattern", what);
         out[k][4 * a + b] = slot;
@@ -418,11 +476,11 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 }
 
 void ClothContact::collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const {
-  collect_stencil_pattern(m_stencils, pairs);
+  collect_stencil_pattern(m_stencils, pairs, m_n);
 }
 
 void ClothContact::bind(const linalg::BlockMatrix3& pattern) {
-  m_slots = stencil_slots(m_stencils, pattern, "cloth contact");
+  m_slots = stencil_slots(m_stencils, pattern, "cloth contact", m_n);
 }
 
 std::vector<std::array<Index, 4>> ClothContact::stencils_at(const VecX& x) const {
@@ -437,13 +495,14 @@ std::vector<std::array<Index, 4>> ClothContact::stencils_at(const VecX& x) const
 }
 
 void ClothContact::start_step(const VecX& x) {
-  auto fresh = stencils_at(x);
+  auto fresh = stencils_at(extended(x));
   if (fresh == m_stencils) return;
   m_stencils = std::move(fresh);
   m_stencils_pending = true;
 }
 
-bool ClothContact::update_stencils(const VecX& x) {
+bool ClothContact::update_stencils(const VecX& x_unknown) {
+  const VecX& x = extended(x_unknown);
   const std::vector<Index> act = active(x);
   bool missing = false;
   for (Index k : act)
@@ -461,8 +520,15 @@ bool ClothContact::update_stencils(const VecX& x) {
 
 double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) const {
   if (!(alpha_max > 0.0)) return 0.0;
-  if (x.size() != 3 * m_n) throw_error("cloth contact: x has {} entries for {} points", x.size(), m_n);
-  const VecX step = alpha_max * d;
+  if (d.size() != 3 * m_n) throw_error("cloth contact: a step has {} entries for {} points", d.size(), m_n);
+  const VecX& X = extended(x);
+  if (m_m == 0) return max_extended_step(X, alpha_max * d, alpha_max);
+  VecX step = VecX::Zero(3 * m_all);
+  step.head(3 * m_n) = alpha_max * d;
+  return max_extended_step(X, step, alpha_max);
+}
+
+double ClothContact::max_extended_step(const VecX& x, const VecX& step, double alpha_max) const {
   // A rebuild along a step holds every pair its swept boxes meet, and their number grows with the square of how far
   // the points move relative to each other in units of the mesh spacing: a Newton step of a 120K stack of landing
   // sheets had billions (24 GB). The step is therefore checked piece by piece, each moving the points at most
@@ -470,7 +536,7 @@ double ClothContact::max_step(const VecX& x, const VecX& d, double alpha_max) co
   double longest = 0.0;
   const auto S = as_columns(step);
   const Vec3 mean = S.rowwise().mean();
-  for (Index i = 0; i < m_n; ++i) longest = std::max(longest, (S.col(i) - mean).norm());
+  for (Index i = 0; i < m_all; ++i) longest = std::max(longest, (S.col(i) - mean).norm());
   const int pieces = static_cast<int>(std::min(64.0, std::ceil(longest / m_sweep_length)));
   if (pieces <= 1) return alpha_max * collision_time(x, step);
   const VecX piece = step / pieces;
@@ -494,9 +560,9 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   const double small = 0.5 * (1.0 - s) * m_min_r;
   VecX rel = step;
   as_columns(rel).colwise() -= as_columns(step).rowwise().mean();
-  std::vector<char> fast(static_cast<size_t>(m_n), 0);
+  std::vector<char> fast(static_cast<size_t>(m_all), 0);
   Index fast_count = 0;
-  for (Index i = 0; i < m_n; ++i)
+  for (Index i = 0; i < m_all; ++i)
     if (rel.segment<3>(3 * i).squaredNorm() > small * small) {
       fast[static_cast<size_t>(i)] = 1;
       ++fast_count;
@@ -504,7 +570,7 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   std::vector<Pair> extra;
   const bool covered = fast_count == 0 ? (ensure_near(x), true) : near_valid(x) && near_valid(x + step);
   if (!covered) {
-    if (static_cast<double>(fast_count) > kLocalUpdateFraction * static_cast<double>(m_n)) {
+    if (static_cast<double>(fast_count) > kLocalUpdateFraction * static_cast<double>(m_all)) {
       rebuild_near(x, &step);
     } else {
       ensure_near(x);
@@ -518,6 +584,7 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
       parallel_for(total, [&](Index k) {
         Pair& p = all[static_cast<size_t>(k)];
         p = candidate_pair(swept, k);
+        if (kinematic_only(p)) return;
         // Pairs that cannot close to s times their distance need no collision detection.
         const int split = p.edge_edge ? 2 : 1;
         double ma = 0.0, mb = 0.0;
@@ -549,8 +616,9 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   return t.empty() ? 1.0 : *std::min_element(t.begin(), t.end());
 }
 
-ContactStats ClothContact::stats(const VecX& x) const {
+ContactStats ClothContact::stats(const VecX& x_unknown) const {
   // Exact distances of every near pair, not the bounded ones the evaluation keeps.
+  const VecX& x = extended(x_unknown);
   ensure_near(x);
   ContactStats out;
   for (const Pair& p : m_near) {
@@ -633,7 +701,8 @@ Eigen::Matrix<double, 3, 2> tangent_basis(const Vec3& n) {
 
 }  // namespace
 
-std::vector<ClothContact::ContactFrame> ClothContact::contact_frames(const VecX& x) const {
+std::vector<ClothContact::ContactFrame> ClothContact::contact_frames(const VecX& x_unknown) const {
+  const VecX& x = extended(x_unknown);
   const std::vector<Index> act = active(x);
   std::vector<ContactFrame> out(act.size());
   std::vector<char> keep(act.size(), 0);

@@ -3,6 +3,7 @@
 #include <mgcloth/physics/term.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -42,14 +43,17 @@ struct ClothContactParams {
 
 /// One cloth (or a part of the unknown) that takes part in contact: its triangles in the unknown's numbering, its
 /// material coordinates (pairs of one cloth closer than the layer in material space are neighbours, not contact)
-/// and its contact thickness.
+/// and its contact thickness. A kinematic surface (an obstacle mesh) is not part of the unknown: its points are the
+/// contact term's kinematic points, placed by ClothContact::set_kinematic_positions, and it touches the cloths but
+/// never itself.
 struct ContactSurface {
   std::string name;
-  Index offset = 0;         ///< first point of this cloth in the unknown
+  Index offset = 0;         ///< first point of this cloth in the unknown (of a kinematic surface: in the kinematic points)
   std::vector<Tri> tris;    ///< in the cloth's own numbering
-  Mat2X material;           ///< per point of the cloth
-  VecX area;                ///< lumped material area per point of the cloth (m²)
+  Mat2X material;           ///< per point of the cloth (unused for a kinematic surface)
+  VecX area;                ///< lumped area per point of the cloth (m²; of a kinematic surface: of its surface)
   double thickness = 1e-3;  ///< m
+  bool kinematic = false;
 };
 
 /// What the contact term saw at the last point it was evaluated for statistics (contact_pairs, min_distance).
@@ -71,10 +75,14 @@ struct ContactTimes {
 /// The Hessian blocks of 4-point stencils (every ordered pair of a stencil's points), shared by the contact and
 /// friction terms.
 void collect_stencil_pattern(const std::vector<std::array<Index, 4>>& stencils,
-                             std::vector<std::pair<Index, Index>>& pairs);
+                             std::vector<std::pair<Index, Index>>& pairs,
+                             Index unknown_points = std::numeric_limits<Index>::max());
 /// Per stencil, the positions of its 4×4 blocks in `pattern` (`what` names the term in the error of a missing block).
+/// Blocks of points at or beyond `unknown_points` (kinematic points, which have no rows) get the slot −1 and are
+/// left out of the pattern by collect_stencil_pattern alike.
 std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<Index, 4>>& stencils,
-                                                 const linalg::BlockMatrix3& pattern, const char* what);
+                                                 const linalg::BlockMatrix3& pattern, const char* what,
+                                                 Index unknown_points = std::numeric_limits<Index>::max());
 
 /// Contact between the triangles of every surface and within each (self-contact): vertex–triangle and edge–edge
 /// pairs whose distance is below the layer r = (t_a + t_b)/2 carry the energy w·ψ(d) (ContactLayer) with
@@ -85,6 +93,11 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// Intersection-freeness is the solvers' part: every trial point is limited by max_step() (continuous collision
 /// detection along the step), so that a point reached from an intersection-free one never has a pair at d = 0,
 /// where the energy is +∞.
+///
+/// Obstacle meshes take part as kinematic surfaces: their points follow the unknown's (index n + k for kinematic
+/// point k), hold still within a solve and move between solves (set_kinematic_positions, after max_joint_step has
+/// checked the motion). Pairs between kinematic points alone are never formed; the energy's gradient and Hessian
+/// have the unknown's rows only.
 ///
 /// The pairs near a point are cached: a rebuild at x_b finds every pair within r + 2δ (broad phase, then exact
 /// distances), which holds every pair inside the layer at any x whose points all lie within δ of x_b after one common
@@ -103,7 +116,10 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
 class ClothContact final : public Term {
  public:
-  ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params);
+  /// `kinematic_positions`: the kinematic surfaces' points where they start (3 per point), which also give their
+  /// triangles' areas.
+  ClothContact(std::vector<ContactSurface> surfaces, Index num_points, const ClothContactParams& params,
+               VecX kinematic_positions = {});
   ~ClothContact() override;
 
   std::string name() const override { return "cloth_contact"; }
@@ -118,8 +134,21 @@ class ClothContact final : public Term {
 
   const ClothContactParams& params() const { return m_params; }
   const std::vector<ContactSurface>& surfaces() const { return m_surfaces; }
-  /// Every triangle of every surface, in the unknown's numbering (for the intersection checker).
+  /// Every triangle of every surface, in the numbering of with_kinematic(x) (for the intersection checker).
   const std::vector<Tri>& triangles() const { return m_topology.triangles; }
+  /// How many of triangles() are the cloths'; the kinematic surfaces' follow them.
+  size_t cloth_triangles() const { return m_cloth_triangles; }
+  Index num_kinematic() const { return m_m; }
+  const VecX& kinematic_positions() const { return m_y; }
+  /// Places the kinematic points for the evaluations that follow. Whether the motion there crosses a cloth is the
+  /// caller's to check first (max_joint_step).
+  void set_kinematic_positions(const VecX& y);
+  /// x followed by the kinematic points: the positions triangles() refers to.
+  VecX with_kinematic(const VecX& x) const;
+  /// The largest fraction in [0, 1] of the joint motion in which the cloths move from x to x + dx and the kinematic
+  /// points from where they are to y_end (straight lines), by the rule of max_step: no pair comes closer than
+  /// ccd_separation times its distance on the way.
+  double max_joint_step(const VecX& x, const VecX& dx, const VecX& y_end) const;
   /// Surface and own index of triangle t of triangles().
   std::pair<size_t, Index> triangle_owner(Index t) const;
   ContactStats stats(const VecX& x) const;
@@ -139,11 +168,22 @@ class ClothContact final : public Term {
 
  private:
   struct Pair {
-    std::array<Index, 4> v;  ///< points in the unknown's numbering: (p, t0, t1, t2) or (a0, a1, b0, b1)
+    std::array<Index, 4> v;  ///< points (kinematic ones after the unknown's): (p, t0, t1, t2) or (a0, a1, b0, b1)
     bool edge_edge = false;
     double weight = 0.0;     ///< w
     double r = 0.0;          ///< the layer's thickness for this pair
   };
+  /// x (the unknown's points) followed by the kinematic points; x itself when there are none. Every private member
+  /// takes and keeps points in this numbering.
+  const VecX& extended(const VecX& x) const;
+  /// The first point of surface c in the extended numbering.
+  Index start(const ContactSurface& c) const { return c.kinematic ? m_n + c.offset : c.offset; }
+  /// Whether every point of p is kinematic: such pairs are never formed.
+  bool kinematic_only(const Pair& p) const {
+    return p.v[0] >= m_n && p.v[1] >= m_n && p.v[2] >= m_n && p.v[3] >= m_n;
+  }
+  /// max_step over the extended points (step: their motion at α = alpha_max).
+  double max_extended_step(const VecX& x, const VecX& step, double alpha_max) const;
   /// Continuous collision detection of the motion x + [0, 1]·step in one piece: the largest admissible fraction.
   double collision_time(const VecX& x, const VecX& step) const;
   /// The distance of pair p at x (exact, nearest features).
@@ -179,10 +219,15 @@ class ClothContact final : public Term {
   std::vector<std::array<Index, 4>> stencils_at(const VecX& x) const;
 
   std::vector<ContactSurface> m_surfaces;
-  Index m_n;
+  Index m_n;       ///< points of the unknown
+  Index m_m = 0;   ///< kinematic points, numbered after them
+  Index m_all = 0; ///< m_n + m_m
+  VecX m_y;        ///< the kinematic points' positions
+  size_t m_cloth_triangles = 0;
+  mutable VecX m_extended;
   ClothContactParams m_params;
   collision::SurfaceTopology m_topology;
-  std::vector<Index> m_surface_of_point;  ///< per point of the unknown, its surface (-1: none)
+  std::vector<Index> m_surface_of_point;  ///< per point (kinematic ones too), its surface (-1: none)
   std::vector<Index> m_triangle_start;    ///< first triangle of each surface in m_topology.triangles
   VecX m_point_area, m_edge_area, m_point_r;
   double m_max_r = 0.0, m_min_r = kInf;
@@ -210,7 +255,7 @@ class ClothContact final : public Term {
   /// weights c of its nearest points (Σ_i c_i x_i is the pair's relative position: the first side's nearest point
   /// less the second's), the contact normal, an orthonormal tangent basis and the normal force.
   struct ContactFrame {
-    std::array<Index, 4> v{};       ///< (p, t0, t1, t2) or (a0, a1, b0, b1), in the unknown's numbering
+    std::array<Index, 4> v{};       ///< (p, t0, t1, t2) or (a0, a1, b0, b1); kinematic points after the unknown's
     std::array<double, 4> c{};      ///< (1, −β0, −β1, −β2) or (1 − a, a, −(1 − b), −b)
     bool edge_edge = false;
     Vec3 normal = Vec3::Zero();     ///< Σ c_i x_i / d: from the second side towards the first

@@ -60,7 +60,9 @@ double ClothFriction::element_energy(double mu_lambda, double eps, const Vec2& u
 
 Vec2 ClothFriction::displacement(const Element& e, const VecX& x) const {
   Vec3 r = -e.base;
-  for (int i = 0; i < 4; ++i) r += e.c[static_cast<size_t>(i)] * x.segment<3>(3 * e.v[static_cast<size_t>(i)]);
+  for (int i = 0; i < 4; ++i)
+    if (e.v[static_cast<size_t>(i)] < m_n)
+      r += e.c[static_cast<size_t>(i)] * x.segment<3>(3 * e.v[static_cast<size_t>(i)]);
   return e.T.transpose() * r;
 }
 
@@ -82,7 +84,8 @@ void ClothFriction::add_gradient(const VecX& x, VecX& g) const {
   // ∂u/∂x_i = c_i Tᵀ: each point gets c_i times the pair's tangential force.
   for (size_t k = 0; k < m_elements.size(); ++k) {
     const Element& e = m_elements[k];
-    for (int i = 0; i < 4; ++i) g.segment<3>(3 * e.v[static_cast<size_t>(i)]) += e.c[static_cast<size_t>(i)] * ge[k];
+    for (int i = 0; i < 4; ++i)
+      if (e.v[static_cast<size_t>(i)] < m_n) g.segment<3>(3 * e.v[static_cast<size_t>(i)]) += e.c[static_cast<size_t>(i)] * ge[k];
   }
 }
 
@@ -102,8 +105,9 @@ void ClothFriction::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool /*p
     const auto& slots = m_slots[static_cast<size_t>(e.stencil)];
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b)
-        H.block(slots[static_cast<size_t>(4 * a + b)]) +=
-            (e.c[static_cast<size_t>(a)] * e.c[static_cast<size_t>(b)]) * He[k];
+        if (slots[static_cast<size_t>(4 * a + b)] >= 0)
+          H.block(slots[static_cast<size_t>(4 * a + b)]) +=
+              (e.c[static_cast<size_t>(a)] * e.c[static_cast<size_t>(b)]) * He[k];
   }
 }
 
@@ -117,11 +121,11 @@ std::vector<std::array<Index, 4>> ClothFriction::stencils() const {
 }
 
 void ClothFriction::collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const {
-  collect_stencil_pattern(m_stencils, pairs);
+  collect_stencil_pattern(m_stencils, pairs, m_n);
 }
 
 void ClothFriction::bind(const linalg::BlockMatrix3& pattern) {
-  m_slots = stencil_slots(m_stencils, pattern, "cloth friction");
+  m_slots = stencil_slots(m_stencils, pattern, "cloth friction", m_n);
 }
 
 bool ClothFriction::update_stencils(const VecX& /*x*/) {
@@ -130,7 +134,8 @@ bool ClothFriction::update_stencils(const VecX& /*x*/) {
   return changed;
 }
 
-void ClothFriction::start_step(const VecX& x0, const std::vector<ClothContact::ContactFrame>& frames, double h) {
+void ClothFriction::start_step(const VecX& x0, const std::vector<ClothContact::ContactFrame>& frames, double h,
+                               const VecX* kinematic_motion) {
   if (x0.size() != 3 * m_n) throw_error("cloth friction: x0 has {} entries for {} points", x0.size(), m_n);
   if (!(h > 0.0)) throw_error("cloth friction: step size must be positive (got {})", h);
   // The threshold is a displacement: ε_v h is how far a contact creeps in one step under static friction.
@@ -142,7 +147,20 @@ void ClothFriction::start_step(const VecX& x0, const std::vector<ClothContact::C
     const double weight = friction(f.surface_a, f.surface_b) * f.normal_force;
     if (!(weight > 0.0)) continue;  // frictionless pairs add nothing, not even to the pattern
     Element e{f.v, f.c, f.tangent, Vec3::Zero(), weight, -1};
-    for (int i = 0; i < 4; ++i) e.base += f.c[static_cast<size_t>(i)] * x0.segment<3>(3 * f.v[static_cast<size_t>(i)]);
+    // A kinematic point's displacement over the step is known: it enters the base with the opposite sign, so that
+    // u measures the cloth's motion relative to the obstacle's.
+    for (int i = 0; i < 4; ++i) {
+      const size_t a = static_cast<size_t>(i);
+      const Index v = f.v[a];
+      if (v < m_n) {
+        e.base += f.c[a] * x0.segment<3>(3 * v);
+      } else if (kinematic_motion) {
+        if (3 * (v - m_n) + 3 > kinematic_motion->size())
+          throw_error("cloth friction: kinematic point {} has no motion ({} coordinates)", v - m_n,
+                      kinematic_motion->size());
+        e.base -= f.c[a] * kinematic_motion->segment<3>(3 * (v - m_n));
+      }
+    }
     m_elements.push_back(e);
   }
   // The pattern changes only when the set of stencils does (the slots, per stencil, stay valid otherwise).

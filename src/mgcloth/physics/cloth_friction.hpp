@@ -30,7 +30,7 @@ struct ClothFrictionParams {
 /// the pairs inside the contact layer at the step's start x⁰ are frozen (ClothContact::contact_frames: normal force
 /// λ_k, nearest-point weights c_k, tangent basis T_k), and the step minimizes, with the rest of the incremental
 /// potential,
-///   D(x) = Σ_k μ_k λ_k f0(‖u_k‖),   u_k = T_kᵀ Σ_i c_ki (x_i − x⁰_i)
+///   D(x) = Σ_k μ_k λ_k f0(‖u_k‖),   u_k = T_kᵀ Σ_i c_ki (x_i − x⁰_i)   (x_i of a kinematic point: where it ends)
 /// with IPC's mollifier for ε_x = ε_v h: f0(y) = −y³/(3ε_x²) + y²/ε_x + ε_x/3 below ε_x, y above,
 /// so that f0' = f1 rises smoothly from 0 to 1 (static friction) and stays 1 (sliding: the force is μλ). D is C²;
 /// its exact Hessian is positive semi-definite, so no projection is needed. It limits no step.
@@ -47,8 +47,11 @@ class ClothFriction final : public Term {
   void bind(const linalg::BlockMatrix3& pattern) override;
   bool update_stencils(const VecX& x) override;
 
-  /// Freezes the step's friction at its start x0 from the contact frames there, for a step of length h.
-  void start_step(const VecX& x0, const std::vector<ClothContact::ContactFrame>& frames, double h);
+  /// Freezes the step's friction at its start x0 from the contact frames there, for a step of length h. Frames may
+  /// hold kinematic points (numbered after the unknown's, as in ClothContact); `kinematic_motion` is their
+  /// displacement over the step (3 per point; null: they hold still), so that an obstacle drags what sticks to it.
+  void start_step(const VecX& x0, const std::vector<ClothContact::ContactFrame>& frames, double h,
+                  const VecX* kinematic_motion = nullptr);
   /// μ between surfaces a and b.
   double friction(Index a, Index b) const { return m_mu[static_cast<size_t>(a * m_surfaces + b)]; }
   /// Number of frozen pairs that carry friction this step.

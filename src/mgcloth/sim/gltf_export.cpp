@@ -104,6 +104,23 @@ ShapeMesh plane_shape(double half) {
 /// An obstacle's shape tessellated as write_glb draws it; a plane is sized to cover the sphere around the animated
 /// surface (`centre`, in the obstacle's frame, and `radius`).
 ShapeMesh obstacle_shape(const fs::path& path, const geometry::Obstacle& ob, const Vec3& centre, double radius) {
+  if (ob.mesh) {
+    // The mesh as it is, smooth-shaded by area-weighted vertex normals.
+    const Mat3X& v = ob.mesh->vertices;
+    Mat3X n = Mat3X::Zero(3, v.cols());
+    for (const Tri& t : ob.mesh->tris) {
+      const Vec3 a = (v.col(t[1]) - v.col(t[0])).cross(v.col(t[2]) - v.col(t[0]));
+      for (Index i : t) n.col(i) += a;
+    }
+    ShapeMesh m;
+    for (Index i = 0; i < v.cols(); ++i) {
+      const double len = n.col(i).norm();
+      m.add_vertex(v.col(i), len > 0.0 ? Vec3(n.col(i) / len) : Vec3::UnitZ());
+    }
+    for (const Tri& t : ob.mesh->tris)
+      m.add_triangle(static_cast<std::uint32_t>(t[0]), static_cast<std::uint32_t>(t[1]), static_cast<std::uint32_t>(t[2]));
+    return m;
+  }
   const auto params = ob.shape->params();
   switch (ob.shape->kind()) {
     // Large enough to lie under the whole animation, seen from any viewpoint that frames the cloth.

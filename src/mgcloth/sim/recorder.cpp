@@ -51,7 +51,18 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   j.erase("frames");
   j.erase("output");
   j.erase("threads");
-  return fnv1a(j.dump());
+  // The scene names an obstacle mesh by its file: what the file holds is part of the scene too, so that a run does
+  // not resume with an edited mesh.
+  std::string meshes;
+  for (const auto& o : scene.obstacles) {
+    if (!o.surface) continue;
+    const auto& s = *o.surface;
+    const auto add = [&](const void* data, size_t bytes) { meshes.append(static_cast<const char*>(data), bytes); };
+    add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
+    for (const Mat3X& f : s.frames) add(f.data(), sizeof(double) * static_cast<size_t>(f.size()));
+    add(s.tris.data(), sizeof(Tri) * s.tris.size());
+  }
+  return fnv1a(j.dump() + meshes);
 }
 
 Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)

@@ -1,4 +1,5 @@
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/mesh/obj_io.hpp>
 #include <mgcloth/sim/scene.hpp>
 
 #include <algorithm>
@@ -185,18 +186,104 @@ ClothSpec parse_cloth(JsonReader r, const fs::path& base, size_t index) {
   return c;
 }
 
-ObstacleSpec parse_obstacle(JsonReader r, size_t index) {
+/// The file names of a mesh sequence: a pattern with one printf-style integer field, %d or %0Nd (N < 10).
+struct SequencePattern {
+  std::string before, after;
+  int width = 0;  ///< zero-padded to this many digits
+  std::string file(long k) const {
+    std::string digits = std::to_string(k);
+    if (static_cast<int>(digits.size()) < width) digits.insert(0, static_cast<size_t>(width) - digits.size(), '0');
+    return before + digits + after;
+  }
+};
+
+/// The pattern of `name`, nullopt for a plain file name; an error message where a '%' is not such a field.
+std::optional<SequencePattern> sequence_pattern(const std::string& name, std::string& error) {
+  const size_t p = name.find('%');
+  if (p == std::string::npos) return std::nullopt;
+  SequencePattern out;
+  out.before = name.substr(0, p);
+  size_t q = p + 1;
+  if (q < name.size() && name[q] == '0' && q + 2 < name.size() && name[q + 1] >= '1' && name[q + 1] <= '9') {
+    out.width = name[q + 1] - '0';
+    q += 2;
+  }
+  if (q >= name.size() || name[q] != 'd' || name.find('%', q) != std::string::npos) {
+    error = fmt::format("\"{}\": a sequence of files names its frame number with one %d or %0Nd (as frame_%04d.obj)",
+                        name);
+    return std::nullopt;
+  }
+  out.after = name.substr(q + 1);
+  return out;
+}
+
+/// A mesh obstacle's surface: one OBJ, or a sequence of them with one topology (frames from `first` up to the first
+/// number without a file).
+std::shared_ptr<const geometry::TriangleSurface> read_obstacle_mesh(JsonReader& r, ObstacleSpec& o) {
+  std::string error;
+  const auto pattern = sequence_pattern(o.mesh, error);
+  if (!error.empty()) r.fail("mesh", error);
+  auto surface = std::make_shared<geometry::TriangleSurface>();
+  surface->source = o.mesh;
+  if (pattern) {
+    o.mesh_rate = r.required_number("mesh_rate", 1e-6, 1e6);
+    o.mesh_loop = r.boolean("mesh_loop", false);
+    o.mesh_first = r.integer("mesh_first", fs::exists(pattern->file(0)) ? 0 : 1, 0, 1'000'000'000);
+  }
+  try {
+    if (!pattern) {
+      mesh::Surface read = mesh::read_obj_surface(o.mesh);
+      surface->vertices = std::move(read.x);
+      surface->tris = std::move(read.tris);
+      return surface;
+    }
+    for (long k = o.mesh_first; fs::exists(pattern->file(k)); ++k) {
+      const std::string file = pattern->file(k);
+      mesh::Surface read = mesh::read_obj_surface(file);
+      if (surface->frames.empty()) {
+        surface->vertices = read.x;
+        surface->tris = read.tris;
+      } else if (read.x.cols() != surface->vertices.cols() || read.tris != surface->tris) {
+        throw InputError(fmt::format("{}: {} vertices and {} faces, the sequence's first frame ({}) has {} and {} in "
+                                     "another order or number: a sequence keeps one topology (faces of zero area "
+                                     "in one frame are dropped and change it too)",
+                                     file, read.x.cols(), read.tris.size(), pattern->file(o.mesh_first),
+                                     surface->vertices.cols(), surface->tris.size()));
+      }
+      surface->frames.push_back(std::move(read.x));
+    }
+    if (surface->frames.empty())
+      throw InputError(fmt::format("{}: cannot open file (the sequence's first frame, mesh_first = {})",
+                                   pattern->file(o.mesh_first), o.mesh_first));
+    surface->rate = o.mesh_rate;
+    surface->loop = o.mesh_loop;
+  } catch (const InputError& e) {
+    r.fail("mesh", e.what());
+  }
+  return surface;
+}
+
+ObstacleSpec parse_obstacle(JsonReader r, const fs::path& base, size_t index) {
   ObstacleSpec o;
   o.name = r.name("name", fmt::format("obstacle{}", index));
-  JsonReader s = r.object("shape");
-  o.shape = s.choice("type", "sphere", {"plane", "sphere", "box", "capsule"});
-  if (o.shape == "sphere" || o.shape == "capsule") o.radius = s.required_number("radius", 1e-6, 1e4);
-  if (o.shape == "capsule") o.half_length = s.number("half_length", o.half_length, 0.0, 1e4);
-  if (o.shape == "box") {
-    o.half_extents = s.vec3("half_extents", o.half_extents);
-    if ((o.half_extents.array() <= 0.0).any()) s.fail("half_extents", "every half extent must be > 0");
+  if (r.has("mesh")) {
+    if (r.has("shape")) r.fail("shape", "an obstacle has a \"shape\" or a \"mesh\", not both");
+    const std::string f = r.required_string("mesh");
+    o.shape = "mesh";
+    o.mesh = fs::absolute(fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
+    o.contact_thickness = r.number("contact_thickness", 0.0, 0.0, 1.0);
+    o.surface = read_obstacle_mesh(r, o);
+  } else {
+    JsonReader s = r.object("shape");
+    o.shape = s.choice("type", "sphere", {"plane", "sphere", "box", "capsule"});
+    if (o.shape == "sphere" || o.shape == "capsule") o.radius = s.required_number("radius", 1e-6, 1e4);
+    if (o.shape == "capsule") o.half_length = s.number("half_length", o.half_length, 0.0, 1e4);
+    if (o.shape == "box") {
+      o.half_extents = s.vec3("half_extents", o.half_extents);
+      if ((o.half_extents.array() <= 0.0).any()) s.fail("half_extents", "every half extent must be > 0");
+    }
+    s.finish();
   }
-  s.finish();
   o.position = r.vec3("position", Vec3::Zero());
   o.rotation_deg = r.vec3("rotation_deg", Vec3::Zero());
   o.friction = r.number("friction", 0.0, 0.0, 10.0);
@@ -224,6 +311,8 @@ geometry::Obstacle ObstacleSpec::build() const {
   geometry::Obstacle ob;
   ob.name = name;
   ob.friction = friction;
+  ob.mesh = surface;
+  ob.contact_thickness = contact_thickness;
   if (shape == "plane") ob.shape = std::make_shared<geometry::Plane>();
   if (shape == "sphere") ob.shape = std::make_shared<geometry::Sphere>(radius);
   if (shape == "box") ob.shape = std::make_shared<geometry::Box>(half_extents);
@@ -295,7 +384,17 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
         cloths[i].fail("name", fmt::format("duplicate cloth name \"{}\" (also cloths[{}])", s.cloths[i].name, j));
   }
   const auto obstacles = r.objects("obstacles");
-  for (size_t i = 0; i < obstacles.size(); ++i) s.obstacles.push_back(parse_obstacle(obstacles[i], i));
+  for (size_t i = 0; i < obstacles.size(); ++i) {
+    s.obstacles.push_back(parse_obstacle(obstacles[i], base, i));
+    // Mesh obstacles are named in the cloth-contact term beside the cloths (friction looks them up by name).
+    for (size_t j = 0; j < i; ++j)
+      if (s.obstacles[j].name == s.obstacles[i].name)
+        obstacles[i].fail("name", fmt::format("duplicate obstacle name \"{}\" (also obstacles[{}])", s.obstacles[i].name, j));
+    if (s.obstacles[i].surface)
+      for (size_t j = 0; j < s.cloths.size(); ++j)
+        if (s.cloths[j].name == s.obstacles[i].name)
+          obstacles[i].fail("name", fmt::format("obstacle \"{}\" has the name of cloths[{}]", s.obstacles[i].name, j));
+  }
   if (auto c = r.optional_object("contact")) {
     s.contact.thickness = c->number("thickness", s.contact.thickness, 0.0, 1.0);
     s.contact.stiffness = c->number("stiffness", s.contact.stiffness, 0.0, 1e15);
@@ -314,6 +413,10 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     cc.friction.pairs = parse_friction_pairs(*c, s.cloths);
     c->finish();
   }
+  for (size_t i = 0; i < s.obstacles.size(); ++i)
+    if (s.obstacles[i].surface && !s.cloth_contact.enabled)
+      obstacles[i].fail("mesh", "a mesh obstacle touches the cloths through cloth contact, which is off in this scene: "
+                                "add \"cloth_contact\": {} (every cloth then also collides with itself and the others)");
   if (auto so = r.optional_object("solver")) {
     s.solver.name = so->choice("name", s.solver.name, solvers::solver_names());
     s.solver.stop.rel_grad = so->number("rel_grad", s.solver.stop.rel_grad, 0.0, 1.0);
@@ -471,7 +574,17 @@ Json to_json(const Scene& s) {
   for (const auto& o : s.obstacles) {
     Json oj;
     oj["name"] = o.name;
-    oj["shape"] = {{"type", o.shape}};
+    if (o.shape == "mesh") {
+      oj["mesh"] = o.mesh;
+      if (o.contact_thickness > 0.0) oj["contact_thickness"] = o.contact_thickness;
+      if (o.mesh_rate > 0.0) {
+        oj["mesh_rate"] = o.mesh_rate;
+        oj["mesh_first"] = o.mesh_first;
+        oj["mesh_loop"] = o.mesh_loop;
+      }
+    } else {
+      oj["shape"] = {{"type", o.shape}};
+    }
     if (o.shape == "sphere" || o.shape == "capsule") oj["shape"]["radius"] = o.radius;
     if (o.shape == "capsule") oj["shape"]["half_length"] = o.half_length;
     if (o.shape == "box") oj["shape"]["half_extents"] = vec_json(o.half_extents);

@@ -23,7 +23,13 @@ using bodies::Transform;
 
 struct ObstacleSpec {
   std::string name;
-  std::string shape = "sphere";  ///< plane | sphere | box | capsule
+  std::string shape = "sphere";  ///< plane | sphere | box | capsule | mesh
+  std::string mesh;              ///< mesh: the OBJ file (absolute), or a sequence's pattern (one %d or %0Nd)
+  double mesh_rate = 0.0;        ///< a sequence's frames per second
+  int mesh_first = 0;            ///< a sequence's first frame number
+  bool mesh_loop = false;        ///< a sequence repeats
+  double contact_thickness = 0.0;  ///< mesh: its side of the contact layer (0: "cloth_contact"'s thickness)
+  std::shared_ptr<const geometry::TriangleSurface> surface;  ///< mesh: read once, when the scene is parsed
   double radius = 0.25;          ///< sphere, capsule
   Vec3 half_extents{0.5, 0.5, 0.5};  ///< box
   double half_length = 0.25;     ///< capsule

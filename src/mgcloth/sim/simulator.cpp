@@ -118,28 +118,42 @@ void Simulator::add_cloth_contact() {
         if (c.name == b->name() && c.contact_thickness > 0.0) t = c.contact_thickness;
       thickness.push_back(t);
     }
-    group->add_cloth_contact(m_scene.cloth_contact.params, thickness);
-    group->add_cloth_friction(m_scene.cloth_contact.friction);
+    std::vector<geometry::Obstacle> meshes;
+    for (const geometry::Obstacle& o : m_obstacles)
+      if (o.mesh) {
+        meshes.push_back(o);
+        if (!(meshes.back().contact_thickness > 0.0)) meshes.back().contact_thickness = m_scene.cloth_contact.thickness;
+      }
+    // Cloth on an obstacle mesh slides with the obstacle's coefficient, as on a shape.
+    physics::ClothFrictionParams friction = m_scene.cloth_contact.friction;
+    for (const geometry::Obstacle& o : meshes)
+      for (const Body* b : group->bodies()) friction.pairs.push_back({o.name, b->name(), o.friction});
+    group->add_cloth_contact(m_scene.cloth_contact.params, thickness, std::move(meshes), time());
+    group->add_cloth_friction(friction);
     const physics::ClothContact* contact = group->cloth_contact();
     if (!contact) continue;
     size_t count = 0;
-    const auto found = collision::find_intersections(group->x(), contact->triangles(), 5, &count);
+    const auto found = collision::find_intersections(contact->with_kinematic(group->x()), contact->triangles(), 5,
+                                                     &count, contact->cloth_triangles());
     if (found.empty()) continue;
     std::vector<std::string> named;
-    for (const auto& p : found) {
-      const auto [sa, ta] = contact->triangle_owner(p.a);
-      const auto [sb, tb] = contact->triangle_owner(p.b);
-      named.push_back(fmt::format("cloth \"{}\" triangle {} and cloth \"{}\" triangle {}", contact->surfaces()[sa].name,
-                                  ta, contact->surfaces()[sb].name, tb));
-    }
-    throw InputError(fmt::format("{}: the cloths intersect at the start, which cloth contact cannot undo: {} triangle "
-                                 "pairs intersect ({}{}); move or rotate the cloths apart (the contact layer is "
-                                 "{} m)", m_scene.file, count, fmt::join(named, "; "), count > found.size() ? "; …" : "",
+    const auto side = [&](Index t) {
+      const auto [s, own] = contact->triangle_owner(t);
+      const auto& surface = contact->surfaces()[s];
+      return fmt::format("{} \"{}\" triangle {}", surface.kinematic ? "obstacle" : "cloth", surface.name, own);
+    };
+    for (const auto& p : found) named.push_back(fmt::format("{} and {}", side(p.a), side(p.b)));
+    throw InputError(fmt::format("{}: the cloths intersect {}at the start, which cloth contact cannot undo: {} triangle "
+                                 "pairs intersect ({}{}); move or rotate them apart (the contact layer is {} m)",
+                                 m_scene.file, contact->num_kinematic() > 0 ? "each other or an obstacle mesh " : "",
+                                 count, fmt::join(named, "; "), count > found.size() ? "; …" : "",
                                  m_scene.cloth_contact.thickness));
   }
 }
 
 namespace {
+/// Solves of one step after which mesh obstacles still short of their poses are an error (Simulator::step).
+constexpr int kObstacleRounds = 50;
 /// A group in messages: `cloth "sheet"`, or `bodies "sheet", "skirt"`.
 std::string group_label(const bodies::Assembly& g) {
   if (g.bodies().size() == 1) return fmt::format("{} \"{}\"", g.bodies()[0]->kind(), g.bodies()[0]->name());
@@ -185,6 +199,7 @@ void Simulator::check_start_outside_obstacles(size_t c, const ClothBody& body) c
   const VecX& x = body.x();
   const double limit = m_scene.contact.thickness;
   for (size_t o = 0; o < m_obstacles.size(); ++o) {
+    if (!m_obstacles[o].shape) continue;  // a mesh: the cloth-contact term's start check covers it
     const hd::ObstacleData od = m_obstacles[o].data(0.0);
     Index count = 0, worst = -1;
     double worst_phi = 0.0;
@@ -236,16 +251,33 @@ std::vector<StepStats> Simulator::step() {
     VecX x;
     if (const physics::ClothContact* contact = group.cloth_contact()) contact->take_times();
     solvers::Problem problem = prepare_problem(g, x, &s.load_factor);
-    try {
-      s.report = building(
-          [&] {
-            return fmt::format("the solve of step {} of {} ({}, solver {}: its matrices and levels)", m_step + 1,
-                               group_label(group), group_size(group), solver.name());
-          },
-          [&] { return solver.minimize(problem, x, m_scene.solver.stop, m_record_trace ? &s.trace : nullptr); });
-    } catch (const SolveError& e) {
-      throw SolveError(fmt::format("{}: {}, frame {}, step {} (t = {:.4f} s): {}", m_scene.file, group_label(group),
-                                   m_frame + 1, m_step + 1, t + h, e.what()));
+    const auto solve = [&](solvers::Trace* trace) {
+      try {
+        return building(
+            [&] {
+              return fmt::format("the solve of step {} of {} ({}, solver {}: its matrices and levels)", m_step + 1,
+                                 group_label(group), group_size(group), solver.name());
+            },
+            [&] { return solver.minimize(problem, x, m_scene.solver.stop, trace); });
+      } catch (const SolveError& e) {
+        throw SolveError(fmt::format("{}: {}, frame {}, step {} (t = {:.4f} s): {}", m_scene.file, group_label(group),
+                                     m_frame + 1, m_step + 1, t + h, e.what()));
+      }
+    };
+    s.report = solve(m_record_trace ? &s.trace : nullptr);
+    // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
+    // step is solved again from there, until they are where their motion puts them.
+    for (int round = 1; group.obstacles_behind(); ++round) {
+      if (round > kObstacleRounds)
+        throw SolveError(fmt::format("{}: {}, frame {}, step {} (t = {:.4f} s): the obstacle meshes could not reach "
+                                     "their poses in {} solves: cloth is caught between them or moves too little "
+                                     "out of their way; use a smaller time step or slow the obstacles",
+                                     m_scene.file, group_label(group), m_frame + 1, m_step + 1, t + h, kObstacleRounds));
+      group.advance_obstacles(x);
+      const solvers::SolveReport more = solve(nullptr);
+      s.report.iterations += more.iterations;
+      s.report.status = more.status;
+      s.report.grad_norm = more.grad_norm;
     }
     const VecX before = x;
     VecX v;
@@ -263,7 +295,8 @@ std::vector<StepStats> Simulator::step() {
       if (m_scene.cloth_contact.check_intersections) {
         const Timer check;
         size_t count = 0;
-        collision::find_intersections(end, contact->triangles(), 0, &count);
+        collision::find_intersections(contact->with_kinematic(end), contact->triangles(), 0, &count,
+                                      contact->cloth_triangles());
         s.intersections = static_cast<Index>(count);
         s.check_ms = check.ms();
       }
@@ -327,6 +360,11 @@ void Simulator::set_state(int frame, long step, const std::vector<VecX>& x, cons
   }
   m_frame = frame;
   m_step = step;
+  // A step always ends with the obstacle meshes at their poses (step()), so a state at a step is theirs then, at
+  // the time as that step computed it (t + h, which need not round to step · h), so that a resumed run repeats.
+  const double h = m_scene.step_size();
+  const double end = m_step > 0 ? static_cast<double>(m_step - 1) * h + h : 0.0;
+  for (auto& g : m_groups) g->place_obstacles(end);
 }
 
 std::string Simulator::solver_state(size_t body) const {

@@ -105,7 +105,8 @@ ContactCheck contact_check(const physics::ClothContact* contact, const VecX& x) 
   c.pairs = cs.pairs;
   c.min_distance = cs.min_distance;
   size_t count = 0;
-  collision::find_intersections(x, contact->triangles(), 0, &count);
+  collision::find_intersections(contact->with_kinematic(x), contact->triangles(), 0, &count,
+                                contact->cloth_triangles());
   c.intersections = static_cast<Index>(count);
   return c;
 }
