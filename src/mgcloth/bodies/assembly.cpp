@@ -106,7 +106,9 @@ VecX Assembly::prepare_step(const StepTime& step) {
       m_mesh_target = obstacle_positions(step.t + step.h);
       const double a = m_contact->max_joint_step(from, d, m_mesh_target);
       m_contact->set_kinematic_positions(a < 1.0 ? VecX(y0 + a * (m_mesh_target - y0)) : m_mesh_target);
-      m_behind = a < 1.0;
+      // Short of the target only where they had a way to go: a still obstacle is never behind, however short the
+      // cloth's own motion fell.
+      m_behind = a < 1.0 && m_mesh_target != y0;
       out = from + a * d;
       m_contact->start_step(out);
       if (m_friction) {
@@ -166,8 +168,9 @@ double Assembly::advance_obstacles(VecX& x) {
     if (count[i] > 0.0) dx.segment<3>(3 * i) /= count[i];
   const double a = m_contact->max_joint_step(x, dx, m_mesh_target);
   x += a * dx;
+  const bool short_of = a < 1.0 && m_mesh_target != y;
   m_contact->set_kinematic_positions(a < 1.0 ? VecX(y + a * (m_mesh_target - y)) : m_mesh_target);
-  m_behind = a < 1.0;
+  m_behind = short_of;
   return a;
 }
 

@@ -251,20 +251,20 @@ std::vector<StepStats> Simulator::step() {
     VecX x;
     if (const physics::ClothContact* contact = group.cloth_contact()) contact->take_times();
     solvers::Problem problem = prepare_problem(g, x, &s.load_factor);
-    const auto solve = [&](solvers::Trace* trace) {
+    const auto solve = [&](solvers::Trace* trace, const solvers::Stop& stop) {
       try {
         return building(
             [&] {
               return fmt::format("the solve of step {} of {} ({}, solver {}: its matrices and levels)", m_step + 1,
                                  group_label(group), group_size(group), solver.name());
             },
-            [&] { return solver.minimize(problem, x, m_scene.solver.stop, trace); });
+            [&] { return solver.minimize(problem, x, stop, trace); });
       } catch (const SolveError& e) {
         throw SolveError(fmt::format("{}: {}, frame {}, step {} (t = {:.4f} s): {}", m_scene.file, group_label(group),
                                      m_frame + 1, m_step + 1, t + h, e.what()));
       }
     };
-    s.report = solve(m_record_trace ? &s.trace : nullptr);
+    s.report = solve(m_record_trace ? &s.trace : nullptr, m_scene.solver.stop);
     // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
     // step is solved again from there, until they are where their motion puts them.
     for (int round = 1; group.obstacles_behind(); ++round) {
@@ -274,7 +274,10 @@ std::vector<StepStats> Simulator::step() {
                                      "out of their way; use a smaller time step or slow the obstacles",
                                      m_scene.file, group_label(group), m_frame + 1, m_step + 1, t + h, kObstacleRounds));
       group.advance_obstacles(x);
-      const solvers::SolveReport more = solve(nullptr);
+      // The step's criterion stays relative to the gradient it started with, not to the smaller one of this start.
+      solvers::Stop again = m_scene.solver.stop;
+      again.abs_grad = std::max(again.abs_grad, again.rel_grad * s.report.initial_grad_norm);
+      const solvers::SolveReport more = solve(nullptr, again);
       s.report.iterations += more.iterations;
       s.report.status = more.status;
       s.report.grad_norm = more.grad_norm;
