@@ -27,7 +27,7 @@ TEST(Obstacle, PosedSdfIsLocalSdfAtTransformedPoint) {
   const Mat3 rot = pose.rotation.toRotationMatrix();
   std::mt19937 rng(3);
   for (const auto& shape : all_shapes()) {
-    const Obstacle obstacle{"o", shape, nullptr, 0.0};
+    const Obstacle obstacle{"o", shape, nullptr, 0.0, nullptr, 0.0};
     for (int i = 0; i < 200; ++i) {
       const Vec3 p_local = random_point(rng, 1.5);
       const Vec3 p_world = pose.to_world(p_local);
@@ -63,7 +63,7 @@ TEST(Obstacle, WorldDerivativesMatchFiniteDifferences) {
          return q.maxCoeff() > 0 || s[2] - s[1] > 1e-2;
        }}};
   for (const auto& [shape, is_smooth_there] : cases) {
-    const Obstacle obstacle{shape->type(), shape, nullptr, 0.0};
+    const Obstacle obstacle{shape->type(), shape, nullptr, 0.0, nullptr, 0.0};
     int checked = 0;
     for (int i = 0; i < 500; ++i) {
       const Vec3 p_local = random_point(rng, 1.5);
@@ -79,7 +79,7 @@ TEST(Obstacle, WorldDerivativesMatchFiniteDifferences) {
 TEST(Obstacle, TimeOverloadUsesMotionPose) {
   Pose initial = some_pose();
   const auto motion = std::make_shared<ConstantVelocityMotion>(initial, Vec3(0.2, 0, -0.3), Vec3(0.5, 1.0, -0.2));
-  const Obstacle obstacle{"mover", std::make_shared<Box>(Vec3(0.5, 0.3, 0.2)), motion, 0.4};
+  const Obstacle obstacle{"mover", std::make_shared<Box>(Vec3(0.5, 0.3, 0.2)), motion, 0.4, nullptr, 0.0};
   const Vec3 p(0.9, -0.1, 0.4);
   for (double t : {0.0, 0.7}) {
     const SdfSample a = obstacle.sdf(p, t);
@@ -89,7 +89,7 @@ TEST(Obstacle, TimeOverloadUsesMotionPose) {
     EXPECT_EQ(a.hess, b.hess);
   }
   // Without a motion the obstacle sits at the identity pose.
-  const Obstacle fixed{"fixed", std::make_shared<Sphere>(1.0), nullptr, 0.0};
+  const Obstacle fixed{"fixed", std::make_shared<Sphere>(1.0), nullptr, 0.0, nullptr, 0.0};
   EXPECT_EQ(fixed.sdf(Vec3(0, 0, 3), 5.0).phi, 2.0);
 }
 
@@ -98,7 +98,7 @@ TEST(Obstacle, SdfRateIsMinusGradientDotPointVelocity) {
   // material point at p. Ties the obstacle's sdf to its motion's point_velocity.
   const auto motion =
       std::make_shared<ConstantVelocityMotion>(some_pose(), Vec3(0.4, -0.3, 0.1), Vec3(0.8, -0.6, 1.3));
-  const Obstacle obstacle{"capsule", std::make_shared<Capsule>(0.3, 0.5), motion, 0.0};
+  const Obstacle obstacle{"capsule", std::make_shared<Capsule>(0.3, 0.5), motion, 0.0, nullptr, 0.0};
   const Vec3 p(1.1, -0.2, 0.9);
   const double t = 0.4, h = 1e-6;
   const double rate = (obstacle.sdf(p, t + h).phi - obstacle.sdf(p, t - h).phi) / (2 * h);
@@ -106,7 +106,8 @@ TEST(Obstacle, SdfRateIsMinusGradientDotPointVelocity) {
 }
 
 TEST(Obstacle, MissingShapeThrows) {
-  const Obstacle obstacle{"empty", nullptr, nullptr, 0.0};
+  Obstacle obstacle;
+  obstacle.name = "empty";
   EXPECT_THROW(obstacle.sdf(Vec3::Zero(), 0.0), Error);
 }
 

@@ -11,7 +11,6 @@ namespace mgcloth::geometry {
 /// A triangle mesh in an obstacle's own frame. Cloth touches it through the cloth-contact term (its vertices as
 /// kinematic points), with the same guarantee as cloth touching cloth.
 struct TriangleSurface {
-  std::string source;  ///< the file it was read from, for messages
   Mat3X vertices;      ///< in the obstacle's frame (a sequence's first frame)
   std::vector<Tri> tris;
   /// A deforming mesh: its vertices at times k / rate (k = 0, 1, …), interpolated linearly between them; held at the

@@ -224,7 +224,6 @@ std::shared_ptr<const geometry::TriangleSurface> read_obstacle_mesh(JsonReader& 
   const auto pattern = sequence_pattern(o.mesh, error);
   if (!error.empty()) r.fail("mesh", error);
   auto surface = std::make_shared<geometry::TriangleSurface>();
-  surface->source = o.mesh;
   if (pattern) {
     o.mesh_rate = r.required_number("mesh_rate", 1e-6, 1e6);
     o.mesh_loop = r.boolean("mesh_loop", false);
