@@ -35,6 +35,9 @@ void add_render_command(CLI::App& app);
 /// Run the parsed `view` (serves until Ctrl-C) or `render` command; return the exit code.
 int run_view_command();
 int run_render_command();
+/// `mgcloth body --out DIR` (body_command.cpp): the generated walking mannequin as OBJ frames and glb.
+void add_body_command(CLI::App& app);
+int run_body_command();
 /// Runs the subcommand that was parsed; returns the exit code.
 int dispatch(CLI::App& app);
 

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   mgcloth::cli::add_bench_command(app);
   mgcloth::cli::add_view_command(app);
   mgcloth::cli::add_render_command(app);
+  mgcloth::cli::add_body_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -30,6 +31,7 @@ int main(int argc, char** argv) {
     if (CLI::App* bench = app.get_subcommand("bench"); bench->parsed()) return mgcloth::cli::run_bench_command(*bench);
     if (app.got_subcommand("view")) return mgcloth::cli::run_view_command();
     if (app.got_subcommand("render")) return mgcloth::cli::run_render_command();
+    if (app.got_subcommand("body")) return mgcloth::cli::run_body_command();
     return mgcloth::cli::dispatch(app);
   } catch (const mgcloth::Error& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());

@@ -253,6 +253,8 @@ void bind_simulator(py::module_& m) {
                              "Wall time of the solve alone, ms.")
       .def_readonly("projected", &sim::StepStats::projected, "Vertices pushed out of obstacles after the solve.")
       .def_readonly("load_factor", &sim::StepStats::load_factor, "Shells: the load factor of the step.")
+      .def_readonly("obstacle_rounds", &sim::StepStats::obstacle_rounds,
+                    "Mesh obstacles: solves after the first because a mesh was still short of its pose.")
       .def_readonly("contact_pairs", &sim::StepStats::contact_pairs,
                     "Cloth contact: pairs inside the contact layer at the end of the step (-1: no cloth contact).")
       .def_readonly("min_distance", &sim::StepStats::min_distance,

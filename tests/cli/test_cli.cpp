@@ -781,3 +781,28 @@ TEST_F(Cli, ShellBenchStartsFromACoarserSolveAndRejectsBadStarts) {
             std::string::npos)
       << r.out;
 }
+
+// `mgcloth body`: the generated mannequin as OBJ frames a scene can read back as a sequence, and a skinned glb.
+TEST_F(Cli, BodyWritesObjFramesAndASkinnedGlbThatScenesRead) {
+  const auto out = dir / "body";
+  const auto r = run(fmt::format("body --out {} --resolution 0.03 --seconds 0.2 --fps 20 --height 1.8", out.string()));
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (int k = 0; k <= 4; ++k) EXPECT_TRUE(fs::exists(out / fmt::format("body_{:04d}.obj", k))) << k;
+  EXPECT_FALSE(fs::exists(out / "body_0005.obj"));
+  const auto mesh = mgcloth::mesh::read_obj_surface((out / "body_0000.obj").string());
+  EXPECT_NEAR(mesh.x.row(2).maxCoeff(), 1.8, 0.03);
+  EXPECT_NEAR(mesh.x.row(2).minCoeff(), 0.0, 0.005);
+  if (fs::exists(out / "body.glb")) {
+    // Both forms of the body are mesh obstacles a scene accepts.
+    for (const std::string obstacle : {R"({"mesh": "body/body_%04d.obj", "mesh_rate": 20})", R"({"mesh": "body/body.glb"})"}) {
+      const auto scene = write("walk.json", R"({ "frames": 1, "cloth_contact": {}, "cloths": [ { "mesh": { "generator": "rectangle", "vertices": 100 },
+        "transform": { "translation": [-0.5, -0.5, 2.0] } } ], "obstacles": [ )" + obstacle + "] }");
+      const auto run_r = run(fmt::format("run {} --out {} --quiet", scene, (dir / "run").string()));
+      EXPECT_EQ(run_r.code, 0) << obstacle << ": " << run_r.out;
+    }
+  }
+  const auto bad = run(fmt::format("body --out {} --height 3", out.string()));
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_NE(bad.out.find("--height"), std::string::npos) << bad.out;
+  EXPECT_EQ(run("body --height 1.7").code, 1);  // --out is required
+}

@@ -1,6 +1,7 @@
 // The glb output format: animation.glb read back with tinygltf against the OBJ frames and the obstacle motion.
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/sim/gltf_export.hpp>
+#include <mgcloth/sim/gltf_skin.hpp>
 #include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
@@ -395,6 +396,188 @@ TEST(GltfFormat, MeshObstaclesAreWrittenAsTheirMesh) {
   EXPECT_NEAR(node.translation[2], 3.0, 1e-6);
   // The size check of the recorder counts it as written.
   EXPECT_GT(sim::glb_binary_bytes(3, 1, true, 1, obstacles), sim::glb_binary_bytes(3, 1, true, 1, {}));
+  fs::remove(file);
+}
+
+namespace {
+
+/// A triangle over `frames` frames `dt` apart (dyadic times, exact in the file's floats), rising 0.1 m a frame.
+sim::SurfaceAnimation moving_triangle(int frames, double dt) {
+  sim::SurfaceAnimation s;
+  s.num_vertices = 3;
+  s.tris = {{0, 1, 2}};
+  for (int k = 0; k < frames; ++k) {
+    s.times.push_back(k * dt);
+    for (float p : {0.0f, 0.0f, 1.0f, 3.0f, 0.0f, 1.0f, 0.0f, 3.0f, 1.0f}) s.positions.push_back(p);
+    for (int i = 0; i < 3; ++i) s.positions[s.positions.size() - 1 - 3 * i] += 0.1f * static_cast<float>(k);
+  }
+  return s;
+}
+
+/// A column of 3 rings of 4 vertices (z = 0, 0.5, 1) on two joints: "base" slides (LINEAR) and "top", at z = 0.5
+/// above it, bends about x (CUBICSPLINE); the middle ring is shared half and half. Its placement turns and scales it.
+std::shared_ptr<geometry::SkinnedMesh> bending_column() {
+  auto s = std::make_shared<geometry::SkinnedMesh>();
+  s->rest.resize(3, 12);
+  s->joints = Eigen::Matrix4Xi::Zero(4, 12);
+  s->weights = Eigen::Matrix4Xd::Zero(4, 12);
+  for (int r = 0; r < 3; ++r)
+    for (int a = 0; a < 4; ++a) {
+      const int v = 4 * r + a;
+      s->rest.col(v) = Vec3(0.1 * std::cos(a * M_PI / 2), 0.1 * std::sin(a * M_PI / 2), 0.5 * r);
+      s->joints.col(v) = Eigen::Vector4i(0, 1, 0, 0);
+      s->weights.col(v) = Eigen::Vector4d(1.0 - 0.5 * r, 0.5 * r, 0, 0);
+    }
+  for (int r = 0; r < 2; ++r)
+    for (int a = 0; a < 4; ++a) {
+      const int i = 4 * r + a, j = 4 * r + (a + 1) % 4;
+      s->tris.push_back({i, j, j + 4});
+      s->tris.push_back({i, j + 4, i + 4});
+    }
+  s->joint_names = {"base", "top"};
+  s->parent = {-1, 0};
+  s->rest_local.resize(2);
+  s->rest_local[1].translation = Vec3(0, 0, 0.5);
+  s->inverse_bind = {Eigen::Affine3d::Identity(), Eigen::Affine3d(Eigen::Translation3d(0, 0, -0.5))};
+  s->tracks.resize(2);
+  s->tracks[0].translation.times = {0.0, 1.0};
+  s->tracks[0].translation.values = {Vec3(0, 0, 0), Vec3(0.3, -0.2, 0.1)};
+  auto& bend = s->tracks[1].rotation;
+  bend.interpolation = geometry::Interpolation::CubicSpline;
+  bend.times = {0.0, 0.5, 1.0};
+  for (double angle : {0.0, 0.5, 1.0}) {
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(angle, Vec3::UnitX()));
+    bend.values.emplace_back(q.x(), q.y(), q.z(), q.w());
+    bend.in_tangents.emplace_back(0.25, 0.0, 0.0, -0.05);
+    bend.out_tangents.emplace_back(0.25, 0.0, 0.0, -0.05);
+  }
+  s->placement = Eigen::Translation3d(0.0, 0.0, 0.2) * Eigen::AngleAxisd(0.5, Vec3::UnitZ()) * Eigen::Scaling(0.8);
+  return s;
+}
+
+/// Expects the skinned mesh read back from `file` to pose like `ob` at every frame of `s`.
+void expect_skin_matches_obstacle(const fs::path& file, const geometry::Obstacle& ob, const sim::SurfaceAnimation& s) {
+  sim::SkinReadOptions ro;
+  ro.mesh = ob.name;
+  const geometry::SkinnedMesh back = sim::read_skinned_gltf(file, ro);
+  for (double t : s.times) {
+    const Mat3X p = back.at(t);
+    const VecX expect = ob.mesh_positions(t);
+    ASSERT_EQ(3 * p.cols(), expect.size());
+    for (Index v = 0; v < p.cols(); ++v)
+      ASSERT_LT((p.col(v) - expect.segment<3>(3 * v)).norm(), 1e-5) << "t = " << t << ", vertex " << v;
+  }
+}
+
+}  // namespace
+
+// A skinned mesh obstacle is a glTF skin whose skeleton hangs from the obstacle's moving node, with its tracks as
+// channels; skinned back from the file it is where the simulation had it at every frame.
+TEST(GltfFormat, SkinnedMeshObstaclesAnimateTheirSkeleton) {
+  const sim::SurfaceAnimation s = moving_triangle(6, 0.25);
+  auto skin = bending_column();
+  auto surface = std::make_shared<geometry::TriangleSurface>();
+  surface->vertices = skin->rest;
+  surface->tris = skin->tris;
+  surface->skin = skin;
+  std::vector<geometry::Obstacle> obstacles(1);
+  obstacles[0].name = "leg";
+  obstacles[0].mesh = surface;
+  const geometry::Pose placed{Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Vec3::UnitZ())), Vec3(1.0, 2.0, 3.0)};
+  obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(placed, Vec3(0.2, 0.0, 0.1), Vec3(0.0, 0.4, 0.5));
+  const fs::path file = fs::temp_directory_path() / ("mgcloth_gltf_skinned_obstacle_" + std::to_string(::getpid()) + ".glb");
+  sim::write_glb(file, s, obstacles);
+  {
+    const auto m = load_glb(file);
+    ASSERT_EQ(m.skins.size(), 1u);
+    const auto& skin_nodes = m.skins[0].joints;
+    ASSERT_EQ(skin_nodes.size(), 2u);
+    EXPECT_EQ(m.nodes.at(skin_nodes[0]).name, "base");
+    EXPECT_GE(m.accessors.at(m.skins[0].inverseBindMatrices).count, 2u);
+    // The mesh's node is at the top of the scene, untransformed; the skeleton hangs from the obstacle's node.
+    const int mesh_node = node_named(m, "leg_skin");
+    ASSERT_EQ(m.scenes.at(0).nodes.size(), 2u);
+    EXPECT_EQ(m.scenes[0].nodes[1], mesh_node);
+    EXPECT_EQ(m.nodes.at(mesh_node).skin, 0);
+    EXPECT_TRUE(m.nodes.at(mesh_node).translation.empty() && m.nodes.at(mesh_node).rotation.empty());
+    const auto& prim = m.meshes.at(m.nodes.at(mesh_node).mesh).primitives.at(0);
+    EXPECT_EQ(m.accessors.at(prim.attributes.at("POSITION")).count, 12u);
+    EXPECT_EQ(m.accessors.at(prim.attributes.at("JOINTS_0")).componentType, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+    EXPECT_EQ(m.accessors.at(prim.attributes.at("WEIGHTS_0")).count, 12u);
+    EXPECT_EQ(m.accessors.at(prim.indices).count, 3u * 16u);
+    // One channel per track, at its keys, and the obstacle's pose at every frame.
+    const auto* bend = sampler_of(m, skin_nodes[1], "rotation");
+    ASSERT_NE(bend, nullptr);
+    EXPECT_EQ(bend->interpolation, "CUBICSPLINE");
+    EXPECT_EQ(m.accessors.at(bend->input).count, 3u);
+    EXPECT_EQ(m.accessors.at(bend->output).count, 9u);
+    ASSERT_NE(sampler_of(m, skin_nodes[0], "translation"), nullptr);
+    EXPECT_EQ(sampler_of(m, skin_nodes[0], "translation")->interpolation, "LINEAR");
+    const auto* pose = sampler_of(m, node_named(m, "leg"), "translation");
+    ASSERT_NE(pose, nullptr);
+    EXPECT_EQ(m.accessors.at(pose->output).count, s.times.size());
+    EXPECT_EQ(m.buffers.at(0).data.size(), sim::glb_binary_bytes(3, 1, false, s.times.size(), obstacles));
+  }
+  expect_skin_matches_obstacle(file, obstacles[0], s);
+
+  // Looping, the animation repeats each second: sampled at the frames, past its last key.
+  surface->loop = true;
+  sim::write_glb(file, s, obstacles);
+  {
+    const auto m = load_glb(file);
+    const auto* bend = sampler_of(m, m.skins.at(0).joints.at(1), "rotation");
+    ASSERT_NE(bend, nullptr);
+    EXPECT_EQ(bend->interpolation, "STEP");
+    EXPECT_EQ(m.accessors.at(bend->output).count, s.times.size());
+    EXPECT_EQ(m.buffers.at(0).data.size(), sim::glb_binary_bytes(3, 1, false, s.times.size(), obstacles));
+  }
+  expect_skin_matches_obstacle(file, obstacles[0], s);
+  EXPECT_GT((obstacles[0].mesh_positions(1.25) - obstacles[0].mesh_positions(1.0)).norm(), 0.1);  // it does loop
+  fs::remove(file);
+}
+
+// A mesh sequence obstacle morphs like the surface: a target per frame after the first, driven by the same weights.
+TEST(GltfFormat, MeshSequenceObstaclesMorphLikeTheSurface) {
+  const sim::SurfaceAnimation s = moving_triangle(6, 0.25);
+  auto surface = std::make_shared<geometry::TriangleSurface>();
+  Mat3X tent(3, 4);
+  tent << 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
+  surface->tris = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}};
+  for (int f = 0; f < 3; ++f) {
+    Mat3X x = tent;
+    x(2, 3) += 0.5 * f;  // the apex rises
+    x(0, 1) -= 0.25 * f;
+    surface->frames.push_back(x);
+  }
+  surface->vertices = surface->frames[0];
+  surface->rate = 2.0;  // frames at 0, 0.5, 1 s; the output's frames fall between them too
+  std::vector<geometry::Obstacle> obstacles(1);
+  obstacles[0].name = "tent";
+  obstacles[0].mesh = surface;
+  const fs::path file = fs::temp_directory_path() / ("mgcloth_gltf_sequence_obstacle_" + std::to_string(::getpid()) + ".glb");
+  sim::write_glb(file, s, obstacles);
+  const auto m = load_glb(file);
+  const int tent_node = node_named(m, "tent");
+  const auto& mesh = m.meshes.at(m.nodes.at(tent_node).mesh);
+  const auto& prim = mesh.primitives.at(0);
+  ASSERT_EQ(prim.targets.size(), s.times.size() - 1);
+  EXPECT_EQ(mesh.weights.size(), s.times.size() - 1);
+  const auto* w = sampler_of(m, tent_node, "weights");
+  ASSERT_NE(w, nullptr);
+  EXPECT_EQ(w->interpolation, "STEP");
+  EXPECT_EQ(w->output, sampler_of(m, node_named(m, "cloth"), "weights")->output);  // shared with the surface
+  const auto base = floats(m, prim.attributes.at("POSITION"));
+  for (size_t k = 0; k < s.times.size(); ++k) {
+    auto x = base;
+    if (k > 0) {
+      const auto d = floats(m, prim.targets[k - 1].at("POSITION"));
+      for (size_t i = 0; i < x.size(); ++i) x[i] += d[i];
+    }
+    const Mat3X expect = surface->at(s.times[k]);
+    for (Index v = 0; v < 4; ++v)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(x[3 * v + c], expect(c, v), 1e-6) << "frame " << k << " vertex " << v;
+  }
+  EXPECT_EQ(m.buffers.at(0).data.size(), sim::glb_binary_bytes(3, 1, false, s.times.size(), obstacles));
   fs::remove(file);
 }
 #else

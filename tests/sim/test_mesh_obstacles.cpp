@@ -4,6 +4,9 @@
 #include <mgcloth/collision/intersections.hpp>
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
+#include <mgcloth/geometry/mannequin.hpp>
+#include <mgcloth/sim/gltf_export.hpp>
+#include <mgcloth/sim/gltf_skin.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include "resume_fixture.hpp"
@@ -269,4 +272,109 @@ TEST(MeshObstacles, SceneErrorsNameTheObstacle) {
   write_file_atomic(scratch.dir / "bad.obj", "v 0 0 0\nv 1 0 x\nv 0 1 0\nf 1 2 3\n");
   m = error(scene(cloth(100, 0.2), {{"mesh", "bad.obj"}}, 1));
   EXPECT_TRUE(has(m, "bad.obj") && has(m, "line 2")) << m;
+}
+
+namespace {
+
+/// A poncho (a square with a hole for the head) over the shoulders of the generated body, coarse enough for a test.
+Json poncho_scene(const Json& body_obstacle, int frames) {
+  Json poncho = {{"name", "poncho"},
+                 {"mesh",
+                  {{"generator", "rectangle"},
+                   {"width", 0.9},
+                   {"height", 0.9},
+                   {"vertices", 500},
+                   {"unstructured", true},
+                   {"holes", Json::array({{{"center", {0.45, 0.45}}, {"radius", 0.1}}})}}},
+                 {"transform", {{"translation", {-0.45, -0.45, 1.5}}}},
+                 {"material", {{"preset", "cotton"}}}};
+  return scene(poncho, body_obstacle, frames);
+}
+
+}  // namespace
+
+// The generated mannequin walks out from under a poncho dropped on its shoulders: the poncho rests on the body,
+// never intersects it (the body moves 4 cm and its hands up to 10 cm per step), and is carried forward.
+TEST(MeshObstacles, APonchoOnTheWalkingBodyIsCarriedAlongWithoutIntersecting) {
+  Scratch scratch("body");
+  const Json body = {{"name", "body"},
+                     {"body", {{"resolution", 0.03}, {"walk", {{"stand", 0.3}, {"ramp", 0.3}}}}},
+                     {"friction", 0.4}};
+  sim::Simulator s(sim::parse_scene(poncho_scene(body, 30), "poncho.json", scratch.dir));
+  run_checked(s, 10);
+  // Standing: the poncho has dropped onto the shoulders (1.40–1.47 m) and hangs there.
+  auto x = as_columns(s.cloths()[0]->x());
+  EXPECT_GT(x.row(2).maxCoeff(), 1.40);
+  EXPECT_LT(x.row(2).maxCoeff(), 1.50);
+  const double x0 = x.row(0).mean();
+  int rounds = 0;
+  for (int f = 10; f < 30; ++f) {
+    for (const auto& st : s.advance_frame()) {
+      ASSERT_EQ(st.intersections, 0) << "frame " << f + 1;
+      rounds += st.obstacle_rounds;
+    }
+  }
+  x = as_columns(s.cloths()[0]->x());
+  // About 0.7 s of walking at up to 1.35 m/s: the body went ~0.6 m, and the poncho with it, still on the shoulders.
+  const VecX& y = s.group(0).cloth_contact()->kinematic_positions();
+  const double body_x = Eigen::Map<const Mat3X>(y.data(), 3, y.size() / 3).row(0).mean();
+  std::printf("walked %.3f m, poncho %.3f m, %d obstacle rounds\n", body_x, x.row(0).mean() - x0, rounds);
+  EXPECT_GT(body_x, 0.4);
+  EXPECT_NEAR(x.row(0).mean() - x0, body_x, 0.15);
+  EXPECT_GT(x.row(2).maxCoeff(), 1.38);
+  RecordProperty("obstacle_rounds", rounds);
+}
+
+// A skinned glb (here the mannequin, written by write_skinned_glb) is a deforming mesh obstacle: the scene's
+// surface follows the file's skin at every time.
+TEST(MeshObstacles, AGlbSkinIsAMeshObstacleThatFollowsItsAnimation) {
+  if (!sim::glb_available()) GTEST_SKIP() << "built without tinygltf";
+  Scratch scratch("glb");
+  geometry::MannequinParams m;
+  m.resolution = 0.03;
+  geometry::WalkParams w;
+  w.stand = 0.1;
+  w.ramp = 0.2;
+  w.duration = 1.0;
+  const geometry::SkinnedMesh skin = geometry::make_mannequin(m, w);
+  sim::write_skinned_glb(scratch.dir / "walker.glb", skin);
+  const sim::Scene sc = sim::parse_scene(poncho_scene({{"name", "walker"}, {"mesh", "walker.glb"}}, 1), "glb.json", scratch.dir);
+  const geometry::Obstacle ob = sc.obstacles[0].build();
+  ASSERT_TRUE(ob.mesh && ob.mesh->skin);
+  EXPECT_EQ(ob.mesh->tris.size(), skin.tris.size());
+  for (const double t : {0.0, 0.25, 0.5, 0.9, 2.0}) {
+    const Mat3X want = skin.at(t);
+    const VecX got = ob.mesh_positions(t);
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_LT((got - want.reshaped()).cwiseAbs().maxCoeff(), 1e-5) << "t = " << t;
+  }
+  // And the file feeds a run.
+  sim::Simulator s(sim::parse_scene(poncho_scene({{"name", "walker"}, {"mesh", "walker.glb"}}, 3), "glb.json", scratch.dir));
+  run_checked(s, 3);
+}
+
+TEST(MeshObstacles, BodySceneErrorsNameTheKey) {
+  Scratch scratch("body_errors");
+  const auto error = [&](const Json& j) -> std::string {
+    try {
+      sim::parse_scene(j, "bad.json", scratch.dir);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  const auto has = [](const std::string& m, const std::string& part) { return m.find(part) != std::string::npos; };
+  std::string m = error(scene(cloth(100, 0.2), {{"body", {{"height", 3.0}}}}, 1));
+  EXPECT_TRUE(has(m, "obstacles[0].body.height")) << m;
+  m = error(scene(cloth(100, 0.2), {{"body", {{"walk", {{"speed", 2.0}}}}}}, 1));
+  EXPECT_TRUE(has(m, "obstacles[0].body.walk.speed") && has(m, "unknown key")) << m;
+  m = error(scene(cloth(100, 0.2), {{"body", Json::object()}, {"mesh", "x.obj"}}, 1));
+  EXPECT_TRUE(has(m, "obstacles[0].mesh")) << m;
+  Json j = scene(cloth(100, 0.2), {{"body", Json::object()}}, 1);
+  j.erase("cloth_contact");
+  m = error(j);
+  EXPECT_TRUE(has(m, "obstacles[0].body") && has(m, "cloth_contact")) << m;
+  write_file_atomic(scratch.dir / "junk.glb", "not a glb");
+  m = error(scene(cloth(100, 0.2), {{"mesh", "junk.glb"}}, 1));
+  EXPECT_TRUE(has(m, "obstacles[0].mesh") && has(m, "junk.glb")) << m;
 }

@@ -2,7 +2,10 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/physics/sub_objective.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 namespace mgcloth::bodies {
 
@@ -89,9 +92,9 @@ VecX Assembly::prepare_step(const StepTime& step) {
   }
   if (m_contact) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
-    const VecX d = out - from;
     m_contact->reset_near();
     if (m_meshes.empty()) {
+      const VecX d = out - from;
       out = from + objective().max_step(from, d, 1.0) * d;
       m_contact->start_step(out);
       // Friction is lagged at the state the step starts from, so that u/h is the relative tangential velocity.
@@ -104,6 +107,10 @@ VecX Assembly::prepare_step(const StepTime& step) {
       // along); where the joint motion would collide, both stop there, and advance_obstacles goes on after a solve.
       const VecX y0 = m_contact->kinematic_positions();
       m_mesh_target = obstacle_positions(step.t + step.h);
+      // Cloth in the obstacles' way starts moving with them rather than by its inertia: otherwise each solve lets
+      // the obstacles reach the next piece of cloth in their way only (advance_obstacles).
+      VecX d = out - from;
+      carry_swept(from, y0, m_mesh_target - y0, std::vector<char>(static_cast<size_t>(num_points()), 0), d);
       const double a = m_contact->max_joint_step(from, d, m_mesh_target);
       m_contact->set_kinematic_positions(a < 1.0 ? VecX(y0 + a * (m_mesh_target - y0)) : m_mesh_target);
       // Short of the target only where they had a way to go: a still obstacle is never behind, however short the
@@ -166,12 +173,60 @@ double Assembly::advance_obstacles(VecX& x) {
   }
   for (Index i = 0; i < n; ++i)
     if (count[i] > 0.0) dx.segment<3>(3 * i) /= count[i];
+  std::vector<char> carried(static_cast<size_t>(n));
+  for (Index i = 0; i < n; ++i) carried[static_cast<size_t>(i)] = count[i] > 0.0;
+  carry_swept(x, y, m_mesh_target - y, carried, dx);
   const double a = m_contact->max_joint_step(x, dx, m_mesh_target);
   x += a * dx;
   const bool short_of = a < 1.0 && m_mesh_target != y;
   m_contact->set_kinematic_positions(a < 1.0 ? VecX(y + a * (m_mesh_target - y)) : m_mesh_target);
   m_behind = short_of;
   return a;
+}
+
+void Assembly::carry_swept(const VecX& x, const VecX& y_from, const VecX& motion, const std::vector<char>& skip,
+                           VecX& dx) const {
+  const Index n = num_points(), m = static_cast<Index>(y_from.size() / 3);
+  double longest = 0.0;
+  for (Index o = 0; o < m; ++o) longest = std::max(longest, motion.segment<3>(3 * o).norm());
+  if (!(longest > 0.0)) return;
+  // Cloth points hashed in cells as large as the longest sweep plus the pad: a sweep meets the cells its box does.
+  const double cell = longest + m_sweep_pad;
+  const auto key = [&](const Vec3& p) -> Eigen::Vector3i { return (p / cell).array().floor().cast<int>(); };
+  const auto hash = [](const Eigen::Vector3i& k) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.x())) * 73856093u) ^
+           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.y())) * 19349663u) ^
+           (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.z())) * 83492791u);
+  };
+  std::unordered_map<std::uint64_t, std::vector<Index>> grid;
+  for (Index i = 0; i < n; ++i)
+    if (!skip[static_cast<size_t>(i)]) grid[hash(key(x.segment<3>(3 * i)))].push_back(i);
+  std::vector<double> best(static_cast<size_t>(n), m_sweep_pad);
+  std::vector<Index> from(static_cast<size_t>(n), -1);
+  for (Index o = 0; o < m; ++o) {
+    const Vec3 a = y_from.segment<3>(3 * o), d = motion.segment<3>(3 * o);
+    const double len2 = d.squaredNorm();
+    if (!(len2 > 0.0)) continue;
+    const Eigen::Vector3i lo = key(a.cwiseMin(a + d) - Vec3::Constant(m_sweep_pad));
+    const Eigen::Vector3i hi = key(a.cwiseMax(a + d) + Vec3::Constant(m_sweep_pad));
+    for (int i = lo.x(); i <= hi.x(); ++i)
+      for (int j = lo.y(); j <= hi.y(); ++j)
+        for (int k = lo.z(); k <= hi.z(); ++k) {
+          const auto it = grid.find(hash({i, j, k}));
+          if (it == grid.end()) continue;
+          for (Index c : it->second) {
+            const Vec3 p = x.segment<3>(3 * c);
+            const double s = std::clamp((p - a).dot(d) / len2, 0.0, 1.0);
+            const double dist = (a + s * d - p).norm();
+            if (dist < best[static_cast<size_t>(c)]) {
+              best[static_cast<size_t>(c)] = dist;
+              from[static_cast<size_t>(c)] = o;
+            }
+          }
+        }
+  }
+  for (Index c = 0; c < n; ++c)
+    if (from[static_cast<size_t>(c)] >= 0) dx.segment<3>(3 * c) = motion.segment<3>(3 * from[static_cast<size_t>(c)]);
 }
 
 void Assembly::add_cloth_contact(const physics::ClothContactParams& params, const std::vector<double>& thickness,
@@ -209,6 +264,16 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
   }
   m_meshes = std::move(meshes);
   if (!m_meshes.empty()) kinematic = obstacle_positions(t0);
+  double thickest = 0.0, edge = 0.0;
+  for (const auto& s : surfaces) thickest = std::max(thickest, s.thickness);
+  for (const geometry::Obstacle& o : m_meshes) {
+    const Mat3X& v = o.mesh->vertices;
+    for (const Tri& t : o.mesh->tris)
+      for (int c = 0; c < 3; ++c) edge = std::max(edge, (v.col(t[c]) - v.col(t[(c + 1) % 3])).norm());
+  }
+  // Vertices stand for their triangles within half an edge; a coarse mesh's large faces are left to the re-solves
+  // rather than carrying cloth from far around them.
+  m_sweep_pad = std::min(0.5 * edge, 0.05) + thickest;
   auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params, std::move(kinematic));
   m_contact = term.get();
   add_coupling(std::move(term));

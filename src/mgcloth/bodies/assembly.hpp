@@ -86,6 +86,12 @@ class Assembly {
   /// The mesh obstacles' vertices at their poses at time t, in the contact term's kinematic order.
   VecX obstacle_positions(double t) const;
   std::vector<geometry::Obstacle> m_meshes;
+  /// Cloth within this of a mesh obstacle's vertex sweep is in its way (half its longest edge, at most 5 cm, plus
+  /// the thickest contact layer), m.
+  double m_sweep_pad = 0.0;
+  /// Sets dx_i (for points with !skip[i]) to the motion of the obstacle vertex whose sweep from y_from by
+  /// motion passes nearest point i, within m_sweep_pad: the cloth ahead of a moving obstacle moves with it.
+  void carry_swept(const VecX& x, const VecX& y_from, const VecX& motion, const std::vector<char>& skip, VecX& dx) const;
   VecX m_mesh_target;    ///< the kinematic points at the end of the prepared step
   bool m_behind = false;
   std::vector<std::unique_ptr<physics::Term>> m_pending;  ///< coupling terms until the joint objective exists

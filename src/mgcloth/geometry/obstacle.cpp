@@ -7,6 +7,10 @@
 namespace mgcloth::geometry {
 
 Mat3X TriangleSurface::at(double t) const {
+  if (skin) {
+    const double period = skin->duration();
+    return skin->at(loop && period > 0.0 ? std::fmod(std::max(t, 0.0), period) : t);
+  }
   if (frames.size() < 2 || !(rate > 0.0)) return frames.empty() ? vertices : frames.front();
   const double n = static_cast<double>(frames.size());
   double s = std::max(t, 0.0) * rate;

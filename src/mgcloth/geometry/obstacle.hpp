@@ -2,6 +2,7 @@
 #include <mgcloth/geometry/rigid_motion.hpp>
 #include <mgcloth/geometry/sdf_kernels.hpp>
 #include <mgcloth/geometry/shapes.hpp>
+#include <mgcloth/geometry/skin.hpp>
 
 #include <memory>
 #include <string>
@@ -19,6 +20,10 @@ struct TriangleSurface {
   std::vector<Mat3X> frames;
   double rate = 0.0;  ///< frames per second
   bool loop = false;
+  /// A skinned mesh (glTF skin, the generated mannequin): the vertices at time t are its linear blend skinning
+  /// (`vertices` its pose at t = 0, `tris` its triangles); null: `frames` or `vertices`. With `loop`, its animation repeats
+  /// with period skin->duration().
+  std::shared_ptr<const SkinnedMesh> skin;
   /// The vertices at time t in the obstacle's frame.
   Mat3X at(double t) const;
   /// The vertices at time t in the world, placed by `pose`, as one vector (3 per vertex).

@@ -61,6 +61,26 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
     add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
     for (const Mat3X& f : s.frames) add(f.data(), sizeof(double) * static_cast<size_t>(f.size()));
     add(s.tris.data(), sizeof(Tri) * s.tris.size());
+    if (const auto& k = s.skin) {
+      add(k->rest.data(), sizeof(double) * static_cast<size_t>(k->rest.size()));
+      add(k->weights.data(), sizeof(double) * static_cast<size_t>(k->weights.size()));
+      add(k->joints.data(), sizeof(int) * static_cast<size_t>(k->joints.size()));
+      add(k->placement.data(), sizeof(double) * 16);
+      for (size_t j = 0; j < k->tracks.size(); ++j) {
+        const auto& t = k->tracks[j];
+        const auto& r = k->rest_local[j];
+        add(r.translation.data(), sizeof(double) * 3);
+        add(r.rotation.coeffs().data(), sizeof(double) * 4);
+        add(r.scale.data(), sizeof(double) * 3);
+        add(k->inverse_bind[j].data(), sizeof(double) * 16);
+        add(t.translation.times.data(), sizeof(double) * t.translation.times.size());
+        add(t.translation.values.data(), sizeof(Vec3) * t.translation.values.size());
+        add(t.rotation.times.data(), sizeof(double) * t.rotation.times.size());
+        add(t.rotation.values.data(), sizeof(Eigen::Vector4d) * t.rotation.values.size());
+        add(t.scale.times.data(), sizeof(double) * t.scale.times.size());
+        add(t.scale.values.data(), sizeof(Vec3) * t.scale.values.size());
+      }
+    }
   }
   return fnv1a(j.dump() + meshes);
 }
@@ -128,7 +148,7 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 
 std::string Recorder::stats_header() {
   return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
-         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms";
+         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
@@ -138,10 +158,10 @@ std::string Recorder::stats_row(const StepStats& s) {
   const std::string dmin = std::isnan(s.min_distance) ? "" : fmt::format("{:.6g}", s.min_distance);
   const std::string crossings = s.intersections >= 0 ? std::to_string(s.intersections) : "";
   const auto ms = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3f}", v); };
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{}", s.frame, s.step,
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
-                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms));
+                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds);
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

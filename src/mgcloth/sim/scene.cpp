@@ -1,5 +1,6 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/sim/gltf_skin.hpp>
 #include <mgcloth/sim/scene.hpp>
 
 #include <algorithm>
@@ -220,6 +221,28 @@ std::optional<SequencePattern> sequence_pattern(const std::string& name, std::st
 /// A mesh obstacle's surface: one OBJ, or a sequence of them with one topology (frames from `first` up to the first
 /// number without a file).
 std::shared_ptr<const geometry::TriangleSurface> read_obstacle_mesh(JsonReader& r, ObstacleSpec& o) {
+  const std::string ext = fs::path(o.mesh).extension().string();
+  if (ext == ".glb" || ext == ".gltf") {
+    o.gltf_mesh = r.string("gltf_mesh", "");
+    o.gltf_animation = r.string("gltf_animation", "");
+    o.gltf_y_up = r.boolean("gltf_y_up", true);
+    o.mesh_loop = r.boolean("mesh_loop", false);
+    auto surface = std::make_shared<geometry::TriangleSurface>();
+    try {
+      SkinReadOptions opt;
+      opt.mesh = o.gltf_mesh;
+      opt.animation = o.gltf_animation;
+      opt.y_up = o.gltf_y_up;
+      auto skin = std::make_shared<geometry::SkinnedMesh>(read_skinned_gltf(o.mesh, opt));
+      surface->vertices = skin->at(0.0);
+      surface->tris = skin->tris;
+      surface->skin = std::move(skin);
+      surface->loop = o.mesh_loop;
+    } catch (const Error& e) {
+      r.fail("mesh", e.what());
+    }
+    return surface;
+  }
   std::string error;
   const auto pattern = sequence_pattern(o.mesh, error);
   if (!error.empty()) r.fail("mesh", error);
@@ -262,10 +285,50 @@ std::shared_ptr<const geometry::TriangleSurface> read_obstacle_mesh(JsonReader& 
   return surface;
 }
 
+/// The generated mannequin of an obstacle's "body" object (geometry/mannequin.hpp): it walks with "walk", else it
+/// stands in its bind pose.
+std::shared_ptr<const geometry::TriangleSurface> make_body(JsonReader b, ObstacleSpec& o) {
+  auto& m = o.body;
+  m.height = b.number("height", m.height, 1.2, 2.2);
+  m.build = b.number("build", m.build, 0.7, 1.5);
+  m.resolution = b.number("resolution", m.resolution, 0.003, 0.05);
+  m.arm_abduction = b.number("arm_abduction", m.arm_abduction, 5.0, 60.0);
+  auto& w = o.walk;
+  if (auto wr = b.optional_object("walk")) {
+    w.period = wr->number("period", w.period, 0.5, 3.0);
+    w.stand = wr->number("stand", w.stand, 0.0, 1e4);
+    w.ramp = wr->number("ramp", w.ramp, 0.0, 1e4);
+    w.duration = wr->number("duration", w.duration, 0.0, 1e4);
+    w.key_rate = wr->number("key_rate", w.key_rate, 1.0, 1000.0);
+    w.forward = wr->boolean("forward", w.forward);
+    w.arm_swing = wr->number("arm_swing", w.arm_swing, 0.0, 3.0);
+    wr->finish();
+  } else {
+    w.duration = 0.0;  // no "walk": it stands
+  }
+  b.finish();
+  auto surface = std::make_shared<geometry::TriangleSurface>();
+  try {
+    auto skin = std::make_shared<geometry::SkinnedMesh>(geometry::make_mannequin(m, w));
+    surface->vertices = skin->at(0.0);
+    surface->tris = skin->tris;
+    surface->skin = std::move(skin);
+  } catch (const Error& e) {
+    b.fail("resolution", e.what());
+  }
+  return surface;
+}
+
 ObstacleSpec parse_obstacle(JsonReader r, const fs::path& base, size_t index) {
   ObstacleSpec o;
   o.name = r.name("name", fmt::format("obstacle{}", index));
-  if (r.has("mesh")) {
+  if (r.has("body")) {
+    for (const char* other : {"shape", "mesh"})
+      if (r.has(other)) r.fail(other, "an obstacle has one of \"shape\", \"mesh\" and \"body\"");
+    o.shape = "body";
+    o.contact_thickness = r.number("contact_thickness", 0.0, 0.0, 1.0);
+    o.surface = make_body(r.object("body"), o);
+  } else if (r.has("mesh")) {
     if (r.has("shape")) r.fail("shape", "an obstacle has a \"shape\" or a \"mesh\", not both");
     const std::string f = r.required_string("mesh");
     o.shape = "mesh";
@@ -414,7 +477,7 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
   }
   for (size_t i = 0; i < s.obstacles.size(); ++i)
     if (s.obstacles[i].surface && !s.cloth_contact.enabled)
-      obstacles[i].fail("mesh", "a mesh obstacle touches the cloths through cloth contact, which is off in this scene: "
+      obstacles[i].fail(s.obstacles[i].shape == "body" ? "body" : "mesh", "a mesh obstacle touches the cloths through cloth contact, which is off in this scene: "
                                 "add \"cloth_contact\": {} (every cloth then also collides with itself and the others)");
   if (auto so = r.optional_object("solver")) {
     s.solver.name = so->choice("name", s.solver.name, solvers::solver_names());
@@ -573,9 +636,25 @@ Json to_json(const Scene& s) {
   for (const auto& o : s.obstacles) {
     Json oj;
     oj["name"] = o.name;
-    if (o.shape == "mesh") {
+    if (o.shape == "body") {
+      const auto& m = o.body;
+      const auto& w = o.walk;
+      oj["body"] = {{"height", m.height}, {"build", m.build}, {"resolution", m.resolution}, {"arm_abduction", m.arm_abduction}};
+      if (w.duration > 0.0) {
+        oj["body"]["walk"] = {{"period", w.period},     {"stand", w.stand},       {"ramp", w.ramp},
+                              {"duration", w.duration}, {"key_rate", w.key_rate}, {"forward", w.forward},
+                              {"arm_swing", w.arm_swing}};
+      }
+      if (o.contact_thickness > 0.0) oj["contact_thickness"] = o.contact_thickness;
+    } else if (o.shape == "mesh") {
       oj["mesh"] = o.mesh;
       if (o.contact_thickness > 0.0) oj["contact_thickness"] = o.contact_thickness;
+      if (o.surface && o.surface->skin) {
+        if (!o.gltf_mesh.empty()) oj["gltf_mesh"] = o.gltf_mesh;
+        if (!o.gltf_animation.empty()) oj["gltf_animation"] = o.gltf_animation;
+        oj["gltf_y_up"] = o.gltf_y_up;
+        oj["mesh_loop"] = o.mesh_loop;
+      }
       if (o.mesh_rate > 0.0) {
         oj["mesh_rate"] = o.mesh_rate;
         oj["mesh_first"] = o.mesh_first;

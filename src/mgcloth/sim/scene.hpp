@@ -1,6 +1,7 @@
 #pragma once
 #include <mgcloth/bodies/cloth_body.hpp>
 #include <mgcloth/core/json.hpp>
+#include <mgcloth/geometry/mannequin.hpp>
 #include <mgcloth/geometry/obstacle.hpp>
 #include <mgcloth/hierarchy/triangle_hierarchy.hpp>
 #include <mgcloth/mesh/generators.hpp>
@@ -23,13 +24,19 @@ using bodies::Transform;
 
 struct ObstacleSpec {
   std::string name;
-  std::string shape = "sphere";  ///< plane | sphere | box | capsule | mesh
-  std::string mesh;              ///< mesh: the OBJ file (absolute), or a sequence's pattern (one %d or %0Nd)
+  std::string shape = "sphere";  ///< plane | sphere | box | capsule | mesh | body
+  /// mesh: the OBJ file (absolute), a sequence's pattern (one %d or %0Nd), or a glTF file (.glb, .gltf)
+  std::string mesh;
+  std::string gltf_mesh;       ///< glTF: the mesh's name (empty: the first skinned one)
+  std::string gltf_animation;  ///< glTF: the animation's name (empty: the first)
+  bool gltf_y_up = true;       ///< glTF: its y axis is up (the glTF convention), turned into mgcloth's z
+  geometry::MannequinParams body;  ///< body: the generated mannequin
+  geometry::WalkParams walk;       ///< body: its walk
   double mesh_rate = 0.0;        ///< a sequence's frames per second
   int mesh_first = 0;            ///< a sequence's first frame number
-  bool mesh_loop = false;        ///< a sequence repeats
+  bool mesh_loop = false;        ///< a sequence (or a glTF animation) repeats
   double contact_thickness = 0.0;  ///< mesh: its side of the contact layer (0: "cloth_contact"'s thickness)
-  std::shared_ptr<const geometry::TriangleSurface> surface;  ///< mesh: read once, when the scene is parsed
+  std::shared_ptr<const geometry::TriangleSurface> surface;  ///< mesh, body: made once, when the scene is parsed
   double radius = 0.25;          ///< sphere, capsule
   Vec3 half_extents{0.5, 0.5, 0.5};  ///< box
   double half_length = 0.25;     ///< capsule

@@ -279,6 +279,8 @@ std::vector<StepStats> Simulator::step() {
       again.abs_grad = std::max(again.abs_grad, again.rel_grad * s.report.initial_grad_norm);
       const solvers::SolveReport more = solve(nullptr, again);
       s.report.iterations += more.iterations;
+      s.report.wall_ms += more.wall_ms;
+      s.obstacle_rounds = round;
       s.report.status = more.status;
       s.report.grad_norm = more.grad_norm;
     }

@@ -35,6 +35,9 @@ struct StepStats {
   /// continuous collision detection), and in the exact intersection checker (NaN: not run), ms.
   double contact_detection_ms = std::numeric_limits<double>::quiet_NaN();
   double check_ms = std::numeric_limits<double>::quiet_NaN();
+  /// Mesh obstacles: the solves after the first that the step took because an obstacle was still short of its
+  /// pose (Simulator::step); their iterations and time are in `report`.
+  int obstacle_rounds = 0;
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
