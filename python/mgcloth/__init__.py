@@ -37,7 +37,7 @@ from ._mgcloth import (
 )
 
 __all__ = [
-    "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "MeshObstacle", "OutOfMemoryError",
+    "Body", "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "MeshObstacle", "OutOfMemoryError",
     "Plane",
     "Simulation", "SolveError", "Sphere", "StepStats", "convergence", "grid", "load_scene", "material_presets", "num_threads",
     "set_log_level", "solver_names",
@@ -183,13 +183,39 @@ class MeshObstacle(_Obstacle):
     `contact_thickness` (m): the mesh's side of the contact layer (default: the cloths')."""
 
     def __init__(self, file, position=(0.0, 0.0, 0.0), rotation_deg=None, *, friction=0.0, name=None, motion=None,
-                 contact_thickness=None, rate=None, first=None, loop=None):
+                 contact_thickness=None, rate=None, first=None, loop=None, gltf_mesh=None, gltf_animation=None,
+                 gltf_y_up=None):
         super().__init__(None, position, rotation_deg, friction, name, motion)
         self.entry["mesh"] = _os.fspath(file)
         for key, value in (("contact_thickness", contact_thickness), ("mesh_rate", rate), ("mesh_first", first),
-                           ("mesh_loop", loop)):
+                           ("mesh_loop", loop), ("gltf_mesh", gltf_mesh), ("gltf_animation", gltf_animation),
+                           ("gltf_y_up", gltf_y_up)):
             if value is not None:
                 self.entry[key] = value
+
+
+class Body(_Obstacle):
+    """The generated mannequin (docs/scene-format.md, "The walking body"): `height` (m), `build` (girth factor),
+    `resolution` (edge length, m), `arm_abduction` (degrees); `walk` is None (it stands), True (the default walk)
+    or a dict of the scene's "walk" keys (period, stand, ramp, duration, key_rate, forward, arm_swing). It faces +x
+    with its soles at `position`. Like MeshObstacle it needs cloth contact."""
+
+    def __init__(self, height=1.75, build=1.0, *, resolution=None, arm_abduction=None, walk=None,
+                 position=(0.0, 0.0, 0.0), rotation_deg=None, friction=0.0, name=None, motion=None,
+                 contact_thickness=None):
+        super().__init__(None, position, rotation_deg, friction, name, motion)
+        body = {"height": float(height), "build": float(build)}
+        if resolution is not None:
+            body["resolution"] = float(resolution)
+        if arm_abduction is not None:
+            body["arm_abduction"] = float(arm_abduction)
+        if walk is True:
+            body["walk"] = {}
+        elif walk:
+            body["walk"] = dict(walk)
+        self.entry["body"] = body
+        if contact_thickness is not None:
+            self.entry["contact_thickness"] = contact_thickness
 
 
 def _resolve_scene(scene):

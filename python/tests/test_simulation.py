@@ -124,6 +124,25 @@ def test_scene_dict_with_obstacle_objects_and_resolved_scene(small_grid):
     assert sim.masses().sum() == pytest.approx(0.25 * 0.08)  # silk: 80 g/m²
 
 
+def test_the_generated_body_stands_under_a_cloth_dropped_on_its_shoulders():
+    # A 0.5 m square (head hole not needed: it falls on the head and shoulders) on a coarse standing mannequin.
+    V, F = mgcloth.grid(0.5, 0.5, 100)
+    V[:, :2] -= 0.25
+    V[:, 2] = 1.8
+    body = mgcloth.Body(1.75, resolution=0.03, name="body", friction=0.4)
+    sim = mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F, name="sheet")], obstacles=[body], cloth_contact={},
+                             dt=1 / 30, rel_grad=1e-3, threads=1)
+    for _ in range(8):
+        stats = sim.step()
+        assert all(s.intersections == 0 and s.obstacle_rounds == 0 for s in stats)  # it stands: no re-solves
+    assert sim.obstacle_names == ["body"]
+    assert sim.x[:, 2].max() > 1.70  # caught by the head (1.75 m) rather than falling through
+    assert sim.scene["obstacles"][0]["body"]["height"] == 1.75
+    assert "walk" not in sim.scene["obstacles"][0]["body"]
+    with pytest.raises(mgcloth.InputError, match="body.height"):
+        mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F)], obstacles=[mgcloth.Body(3.0)], cloth_contact={})
+
+
 def test_a_mesh_obstacle_from_an_obj_file_holds_the_cloth(tmp_path):
     # A 0.3 m square plate in z = 0 (two triangles, no thickness); a cloth falls onto it through cloth contact.
     (tmp_path / "plate.obj").write_text("v -0.15 -0.15 0\nv 0.15 -0.15 0\nv 0.15 0.15 0\nv -0.15 0.15 0\n"
