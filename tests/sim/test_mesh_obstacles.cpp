@@ -91,6 +91,18 @@ void run_checked(sim::Simulator& s, int frames, bool converged = false) {
   }
 }
 
+/// The InputError a scene gives (files relative to `dir`), or "accepted".
+std::string scene_error(const Json& j, const fs::path& dir) {
+  try {
+    sim::parse_scene(j, "bad.json", dir);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+bool has(const std::string& message, const std::string& part) { return message.find(part) != std::string::npos; }
+
 }  // namespace
 
 TEST(MeshObstacles, AClothDropsOntoAnObjBoxAndDrapesOverItWithoutIntersecting) {
@@ -230,15 +242,7 @@ TEST(MeshObstacles, ClothThatStartsThroughAnObstacleMeshIsRefusedByTriangle) {
 TEST(MeshObstacles, SceneErrorsNameTheObstacle) {
   Scratch scratch("errors");
   write_file_atomic(scratch.dir / "plate.obj", plate_obj(0.08));
-  const auto error = [&](const Json& j) -> std::string {
-    try {
-      sim::parse_scene(j, "bad.json", scratch.dir);
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "accepted";
-  };
-  const auto has = [](const std::string& m, const std::string& part) { return m.find(part) != std::string::npos; };
+  const auto error = [&](const Json& j) { return scene_error(j, scratch.dir); };
   // A missing file, named with its path and the key.
   std::string m = error(scene(cloth(100, 0.2), {{"mesh", "nowhere.obj"}}, 1));
   EXPECT_TRUE(has(m, "obstacles[0].mesh") && has(m, "nowhere.obj") && has(m, "cannot open file")) << m;
@@ -355,15 +359,7 @@ TEST(MeshObstacles, AGlbSkinIsAMeshObstacleThatFollowsItsAnimation) {
 
 TEST(MeshObstacles, BodySceneErrorsNameTheKey) {
   Scratch scratch("body_errors");
-  const auto error = [&](const Json& j) -> std::string {
-    try {
-      sim::parse_scene(j, "bad.json", scratch.dir);
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "accepted";
-  };
-  const auto has = [](const std::string& m, const std::string& part) { return m.find(part) != std::string::npos; };
+  const auto error = [&](const Json& j) { return scene_error(j, scratch.dir); };
   std::string m = error(scene(cloth(100, 0.2), {{"body", {{"height", 3.0}}}}, 1));
   EXPECT_TRUE(has(m, "obstacles[0].body.height")) << m;
   m = error(scene(cloth(100, 0.2), {{"body", {{"walk", {{"speed", 2.0}}}}}}, 1));
