@@ -5,6 +5,7 @@
 #include <mgcloth/physics/membrane.hpp>
 #include <mgcloth/physics/seam.hpp>
 #include <mgcloth/bodies/cloth_body.hpp>
+#include <mgcloth/mesh/pattern.hpp>
 
 namespace mgcloth::bodies {
 
@@ -24,6 +25,9 @@ mesh::TriMesh load_mesh(const ClothSpec& spec, const mesh::TriMesh* given) {
     return m;
   }
   if (!spec.mesh.file.empty()) return mesh::read_obj(spec.mesh.file, spec.mesh.material_scale);
+  // Panels in their placements, stitched edges sharing source vertices: the seam springs sew them.
+  if (!spec.mesh.pattern.empty())
+    return mesh::triangulate_pattern(mesh::read_pattern(spec.mesh.pattern), spec.mesh.pattern_resolution).mesh;
   if (spec.mesh.generator == "tube") return mesh::make_tube(spec.mesh.tube);
   return mesh::make_rectangle(spec.mesh.rectangle);
 }

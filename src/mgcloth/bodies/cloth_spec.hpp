@@ -14,6 +14,8 @@ namespace mgcloth::bodies {
 struct MeshSource {
   std::string file;             ///< resolved path when the mesh is read from OBJ (empty: generated)
   double material_scale = 1.0;  ///< metres per UV unit
+  std::string pattern;            ///< resolved path of a sewing pattern (mesh/pattern.hpp); empty: none
+  double pattern_resolution = 0.02;  ///< m, the pattern's triangles' edge length
   std::string generator = "rectangle";  ///< rectangle | tube
   mesh::RectangleSpec rectangle;
   mesh::TubeSpec tube;

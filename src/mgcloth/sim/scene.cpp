@@ -1,5 +1,6 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/mesh/obj_io.hpp>
+#include <mgcloth/mesh/pattern.hpp>
 #include <mgcloth/sim/gltf_skin.hpp>
 #include <mgcloth/sim/scene.hpp>
 
@@ -76,6 +77,15 @@ MeshSource parse_mesh(JsonReader r, const fs::path& base) {
     // Absolute, so that the resolved scene and a --resume work from any working directory.
     s.file = fs::absolute(fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
     s.material_scale = r.number("material_scale", 1.0, 1e-9, 1e9);
+  } else if (r.has("pattern")) {
+    const std::string f = r.required_string("pattern");
+    s.pattern = fs::absolute(fs::path(f).is_absolute() ? fs::path(f) : base / f).lexically_normal().string();
+    s.pattern_resolution = r.number("resolution", s.pattern_resolution, 1e-3, 1.0);
+    try {
+      mesh::read_pattern(s.pattern);  // its errors now, naming the key; the mesh is made with the body
+    } catch (const InputError& e) {
+      r.fail("pattern", e.what());
+    }
   } else {
     s.generator = r.choice("generator", "rectangle", {"rectangle", "tube"});
     if (s.generator == "tube") {
@@ -575,6 +585,8 @@ Json to_json(const Scene& s) {
     cj["name"] = c.name;
     if (!c.mesh.file.empty()) {
       cj["mesh"] = {{"file", c.mesh.file}, {"material_scale", c.mesh.material_scale}};
+    } else if (!c.mesh.pattern.empty()) {
+      cj["mesh"] = {{"pattern", c.mesh.pattern}, {"resolution", c.mesh.pattern_resolution}};
     } else if (c.mesh.generator == "tube") {
       const auto& t = c.mesh.tube;
       cj["mesh"] = {{"generator", "tube"}, {"circumference", t.circumference}, {"height", t.height},
