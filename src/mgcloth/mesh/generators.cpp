@@ -1,5 +1,6 @@
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/out_of_memory.hpp>
+#include <mgcloth/mesh/cdt.hpp>
 #include <mgcloth/mesh/generators.hpp>
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -274,12 +275,10 @@ Sample sample_to_target(const RectangleSpec& spec, double target) {
   return best;
 }
 
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using VertexBase =
-    CGAL::Triangulation_vertex_base_with_info_2<Index, Kernel, CGAL::Delaunay_mesh_vertex_base_2<Kernel>>;
-using FaceBase = CGAL::Delaunay_mesh_face_base_2<Kernel>;
-using Cdt = CGAL::Constrained_Delaunay_triangulation_2<
-    Kernel, CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>, CGAL::Exact_predicates_tag>;
+using cdt::Cdt;
+using cdt::FaceBase;
+using cdt::Kernel;
+using cdt::VertexBase;
 
 /// Constrained Delaunay triangulation of the sample, then Delaunay refinement with a shape bound only (no size
 /// bound): it inserts points only where a triangle's smallest angle is below ~20.7 degrees or a boundary segment

@@ -2,6 +2,7 @@
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/out_of_memory.hpp>
+#include <mgcloth/mesh/cdt.hpp>
 #include <mgcloth/mesh/pattern.hpp>
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
@@ -466,12 +467,10 @@ void check_pattern(const SewingPattern& pattern, bool warn) {
 
 namespace {
 
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using VertexBase =
-    CGAL::Triangulation_vertex_base_with_info_2<Index, Kernel, CGAL::Delaunay_mesh_vertex_base_2<Kernel>>;
-using FaceBase = CGAL::Delaunay_mesh_face_base_2<Kernel>;
-using Cdt = CGAL::Constrained_Delaunay_triangulation_2<
-    Kernel, CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>, CGAL::Exact_predicates_tag>;
+using cdt::Cdt;
+using cdt::FaceBase;
+using cdt::Kernel;
+using cdt::VertexBase;
 using Criteria = CGAL::Delaunay_mesh_size_criteria_2<Cdt>;
 using Mesher = CGAL::Delaunay_mesher_no_edge_refinement_2<Cdt, Criteria>;
 
