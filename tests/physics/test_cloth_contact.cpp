@@ -104,6 +104,80 @@ TEST(ClothContact, MaterialSpaceNeighboursAreNotContact) {
   EXPECT_GT(c.stats(y).pairs, 0);
 }
 
+// Two panels of one garment, each its own chart over the same material square (as a sewing pattern's panels are):
+// panel b is copied from panel a, its points after a's.
+ContactSurface two_panels(VecX& x) {
+  ContactSurface s = fixtures::sheet("garment", 0.05, 36, 0.0, 0, x);
+  const Index n = s.material.cols();
+  s.material.conservativeResize(2, 2 * n);
+  s.material.rightCols(n) = s.material.leftCols(n);
+  for (Index t = 0, nt = static_cast<Index>(s.tris.size()); t < nt; ++t) {
+    const Tri a = s.tris[static_cast<size_t>(t)];
+    s.tris.push_back({a[0] + n, a[1] + n, a[2] + n});
+  }
+  s.area.conservativeResize(2 * n);
+  s.area.tail(n) = s.area.head(n);
+  x.conservativeResize(6 * n);
+  x.tail(3 * n) = x.head(3 * n);
+  return s;
+}
+
+TEST(ClothContact, PanelsOfOneClothWhoseChartsOverlapStillTouch) {
+  VecX x;
+  const ContactSurface s = two_panels(x);
+  const Index n = s.material.cols() / 2;
+  // Panel b lies half the layer above panel a, shifted: the same material points, but not neighbours on the cloth.
+  for (Index i = n; i < 2 * n; ++i) x.segment<3>(3 * i) += Vec3(0.0031, 0.0017, 0.5e-3);
+  ClothContact c({s}, 2 * n, ClothContactParams{});
+  c.update_stencils(x);
+  EXPECT_GT(c.stats(x).pairs, 10);
+  EXPECT_GT(c.value(x), 0.0);
+}
+
+TEST(ClothContact, TheTwoSidesOfAClosedSeamAreNotContactPairs) {
+  VecX x;
+  ContactSurface s = two_panels(x);
+  const Index n = s.material.cols() / 2;
+  // Panel b stands upright on a's edge u = 0.05, sewn to it there: both sides of the seam coincide.
+  for (Index i = n; i < 2 * n; ++i) {
+    const Vec2 u = s.material.col(i);
+    x.segment<3>(3 * i) = Vec3(0.05, u.y(), 0.05 - u.x());
+  }
+  for (Index i = 0; i < n; ++i)
+    if (std::abs(s.material(0, i) - 0.05) < 1e-12) s.stitch_groups.push_back({i, i + n});
+  ASSERT_GE(s.stitch_groups.size(), 5u);
+  ContactSurface unsewn = s;
+  unsewn.stitch_groups.clear();
+  // Unsewn, the coincident points are contact at distance 0; sewn, the seam is where the panels join.
+  ClothContact cut({unsewn}, 2 * n, ClothContactParams{});
+  cut.update_stencils(x);
+  EXPECT_GT(cut.stats(x).pairs, 0);
+  EXPECT_EQ(cut.value(x), kInf);
+  ClothContact c({s}, 2 * n, ClothContactParams{});
+  c.update_stencils(x);
+  EXPECT_EQ(c.stats(x).pairs, 0);
+  EXPECT_EQ(c.value(x), 0.0);
+  // Panel b sliding along the seam is not stopped by the seam's own points.
+  VecX slide = VecX::Zero(x.size());
+  for (Index i = n; i < 2 * n; ++i) slide[3 * i + 1] = 1e-3;
+  EXPECT_EQ(c.max_step(x, slide, 1.0), 1.0);
+  // The checker sees the closed seam as joined: its points welded, no crossing; the raw triangles touch there.
+  EXPECT_GT(collision::find_intersections(x, c.triangles()).size(), 0u);
+  EXPECT_EQ(collision::find_intersections(x, c.sewn_triangles(x)).size(), 0u);
+  // An open seam (the panel lifted 1 cm) is not welded.
+  VecX open = x;
+  for (Index i = n; i < 2 * n; ++i) open[3 * i + 2] += 0.01;
+  EXPECT_EQ(c.sewn_triangles(open), c.triangles());
+  // Folded flat onto panel a (inside its layer), panel b's interior is contact again, away from the seam.
+  VecX flat = x;
+  for (Index i = n; i < 2 * n; ++i) {
+    const Vec2 u = s.material.col(i);
+    flat.segment<3>(3 * i) = Vec3(0.05 - 0.9 * (0.05 - u.x()), u.y(), 0.5e-3 * (0.05 - u.x()) / 0.05 + 0.3e-3);
+  }
+  c.update_stencils(flat);
+  EXPECT_GT(c.stats(flat).pairs, 10);
+}
+
 TEST(ClothContact, MaxStepStopsASheetBeforeItPassesThroughAnother) {
   VecX x;
   std::vector<ContactSurface> s;

@@ -294,6 +294,7 @@ std::optional<physics::ContactSurface> ClothBody::contact_surface(double thickne
   s.name = m_name;
   s.tris = m_mesh.tris;
   s.material = m_mesh.u;
+  s.stitch_groups = m_topology.stitch_groups;
   s.area = m_area;
   s.thickness = thickness;
   return s;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 
 namespace mgcloth::physics {
 
@@ -63,6 +64,19 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
   m_m = static_cast<Index>(m_y.size() / 3);
   m_all = m_n + m_m;
   m_surface_of_point.assign(static_cast<size_t>(m_all), -1);
+  m_seam_point.resize(static_cast<size_t>(m_all));
+  std::iota(m_seam_point.begin(), m_seam_point.end(), Index{0});
+  // Union–find over the triangles: the connected pieces.
+  m_chart.resize(static_cast<size_t>(m_all));
+  std::iota(m_chart.begin(), m_chart.end(), Index{0});
+  const auto chart = [this](Index v) {
+    std::vector<Index>& up = m_chart;
+    while (up[static_cast<size_t>(v)] != v) {
+      up[static_cast<size_t>(v)] = up[static_cast<size_t>(up[static_cast<size_t>(v)])];
+      v = up[static_cast<size_t>(v)];
+    }
+    return v;
+  };
   m_point_area = VecX::Zero(m_all);
   m_point_r = VecX::Zero(m_all);
   std::vector<Tri> tris;
@@ -89,8 +103,17 @@ ClothContact::ClothContact(std::vector<ContactSurface> surfaces, Index num_point
       m_point_area[first + i] = c.area[i];
       m_point_r[first + i] = c.thickness;
     }
-    for (const Tri& t : c.tris) tris.push_back({t[0] + first, t[1] + first, t[2] + first});
+    for (const auto& group : c.stitch_groups)
+      for (Index v : group) {
+        if (v < 0 || v >= np) throw_error("cloth contact: a stitch of surface \"{}\" has point {} of {}", c.name, v, np);
+        m_seam_point[static_cast<size_t>(first + v)] = first + group.front();
+      }
+    for (const Tri& t : c.tris) {
+      tris.push_back({t[0] + first, t[1] + first, t[2] + first});
+      for (int k = 1; k < 3; ++k) m_chart[static_cast<size_t>(chart(t[k] + first))] = chart(t[0] + first);
+    }
   }
+  for (Index i = 0; i < m_all; ++i) m_chart[static_cast<size_t>(i)] = chart(i);
   m_triangle_start.push_back(static_cast<Index>(tris.size()));
   m_topology = collision::make_surface_topology(std::move(tris));
   // An edge stands for a third of the area of each triangle it borders, so edges cover the surface once.
@@ -176,10 +199,34 @@ double ClothContact::distance(const Pair& p, const VecX& x) const {
   return std::sqrt(s);
 }
 
+std::vector<Tri> ClothContact::sewn_triangles(const VecX& x) const {
+  if (x.size() != 3 * m_all) throw_error("cloth contact: {} coordinates for {} points", x.size(), m_all);
+  std::vector<Tri> out = m_topology.triangles;
+  for (Tri& t : out)
+    for (Index& v : t) {
+      const Index w = m_seam_point[static_cast<size_t>(v)];
+      if (w != v && (at(x, v) - at(x, w)).norm() <= m_point_r[v]) v = w;
+    }
+  return out;
+}
+
+bool ClothContact::never_paired(const Pair& p) const {
+  if (p.v[0] >= m_n && p.v[1] >= m_n && p.v[2] >= m_n && p.v[3] >= m_n) return true;
+  const int first_b = p.edge_edge ? 2 : 1;
+  for (int a = 0; a < first_b; ++a)
+    for (int b = first_b; b < 4; ++b)
+      if (m_seam_point[static_cast<size_t>(p.v[a])] == m_seam_point[static_cast<size_t>(p.v[b])]) return true;
+  return false;
+}
+
 bool ClothContact::same_surface_neighbours(const Pair& p) const {
   const Index s = m_surface_of_point[p.v[0]];
   if (s != m_surface_of_point[p.v[1]] || s != m_surface_of_point[p.v[2]] || s != m_surface_of_point[p.v[3]])
     return false;
+  // Pieces of one cloth (a pattern's panels) are charts of their own that may overlap in material space.
+  const Index piece = m_chart[static_cast<size_t>(p.v[0])];
+  for (int k = 1; k < 4; ++k)
+    if (m_chart[static_cast<size_t>(p.v[k])] != piece) return false;
   const ContactSurface& c = m_surfaces[static_cast<size_t>(s)];
   const auto u = [&](int k) { return lift(c.material, p.v[k] - c.offset); };
   const double d2 = p.edge_edge ? collision::edge_edge_distance_sq(u(0), u(1), u(2), u(3))
@@ -342,7 +389,7 @@ void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
   const bool moving = rel.squaredNorm() > 0.0;
   parallel_for(nvt + nee, [&](Index k) {
     const Pair p = candidate_pair(m_candidates, k);
-    if (kinematic_only(p)) return;
+    if (never_paired(p)) return;
     // At a covered point, relative to the pair's first point, each point i has moved by t(s_i − s_0) + e_i, so each
     // side's distance drops by at most its largest |s_i − s_0| plus δ.
     const int split = p.edge_edge ? 2 : 1;
@@ -584,7 +631,7 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
       parallel_for(total, [&](Index k) {
         Pair& p = all[static_cast<size_t>(k)];
         p = candidate_pair(swept, k);
-        if (kinematic_only(p)) return;
+        if (never_paired(p)) return;
         // Pairs that cannot close to s times their distance need no collision detection.
         const int split = p.edge_edge ? 2 : 1;
         double ma = 0.0, mb = 0.0;

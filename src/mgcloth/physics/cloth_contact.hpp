@@ -51,6 +51,9 @@ struct ContactSurface {
   Index offset = 0;         ///< first point of this cloth in the unknown (of a kinematic surface: in the kinematic points)
   std::vector<Tri> tris;    ///< in the cloth's own numbering
   Mat2X material;           ///< per point of the cloth (unused for a kinematic surface)
+  /// Points sewn together (Topology::stitch_groups, the cloth's numbering): the seam's sides lie in different charts
+  /// of `material`, so primitives that share a stitch group are neighbours, not contact pairs.
+  std::vector<std::vector<Index>> stitch_groups;
   VecX area;                ///< lumped area per point of the cloth (m²; of a kinematic surface: of its surface)
   double thickness = 1e-3;  ///< m
   bool kinematic = false;
@@ -134,8 +137,12 @@ class ClothContact final : public Term {
 
   const ClothContactParams& params() const { return m_params; }
   const std::vector<ContactSurface>& surfaces() const { return m_surfaces; }
-  /// Every triangle of every surface, in the numbering of with_kinematic(x) (for the intersection checker).
+  /// Every triangle of every surface, in the numbering of with_kinematic(x).
   const std::vector<Tri>& triangles() const { return m_topology.triangles; }
+  /// triangles() as sewn at x (with_kinematic numbering), for the intersection checker: each stitched point within
+  /// its layer of its stitch group's first point is replaced by that point, so that triangles meeting across a closed
+  /// seam share the point there as triangles of one chart do. Points of a seam still open keep their own.
+  std::vector<Tri> sewn_triangles(const VecX& x) const;
   /// How many of triangles() are the cloths'; the kinematic surfaces' follow them.
   size_t cloth_triangles() const { return m_cloth_triangles; }
   Index num_kinematic() const { return m_m; }
@@ -178,10 +185,10 @@ class ClothContact final : public Term {
   const VecX& extended(const VecX& x) const;
   /// The first point of surface c in the extended numbering.
   Index start(const ContactSurface& c) const { return c.kinematic ? m_n + c.offset : c.offset; }
-  /// Whether every point of p is kinematic: such pairs are never formed.
-  bool kinematic_only(const Pair& p) const {
-    return p.v[0] >= m_n && p.v[1] >= m_n && p.v[2] >= m_n && p.v[3] >= m_n;
-  }
+  /// Pairs never formed: every point kinematic, or the two sides sharing a sewn point. Across a seam the charts
+  /// do not meet, and such primitives touch at the seam as primitives sharing a vertex do (which the broad phase
+  /// never pairs); the seam springs pull them to distance 0, which a layer would forbid.
+  bool never_paired(const Pair& p) const;
   /// max_step over the extended points (step: their motion at α = alpha_max).
   double max_extended_step(const VecX& x, const VecX& step, double alpha_max) const;
   /// Continuous collision detection of the motion x + [0, 1]·step in one piece: the largest admissible fraction.
@@ -228,6 +235,8 @@ class ClothContact final : public Term {
   ClothContactParams m_params;
   collision::SurfaceTopology m_topology;
   std::vector<Index> m_surface_of_point;  ///< per point (kinematic ones too), its surface (-1: none)
+  std::vector<Index> m_seam_point;        ///< per point, the first point of its stitch group (itself if unsewn)
+  std::vector<Index> m_chart;             ///< per point, its connected piece of triangles (panels are pieces)
   std::vector<Index> m_triangle_start;    ///< first triangle of each surface in m_topology.triangles
   VecX m_point_area, m_edge_area, m_point_r;
   double m_max_r = 0.0, m_min_r = kInf;

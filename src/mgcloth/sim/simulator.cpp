@@ -133,8 +133,9 @@ void Simulator::add_cloth_contact() {
     const physics::ClothContact* contact = group->cloth_contact();
     if (!contact) continue;
     size_t count = 0;
-    const auto found = collision::find_intersections(contact->with_kinematic(group->x()), contact->triangles(), 5,
-                                                     &count, contact->cloth_triangles());
+    const VecX all = contact->with_kinematic(group->x());
+    const auto found = collision::find_intersections(all, contact->sewn_triangles(all), 5, &count,
+                                                     contact->cloth_triangles());
     if (found.empty()) continue;
     std::vector<std::string> named;
     const auto side = [&](Index t) {
@@ -300,8 +301,8 @@ std::vector<StepStats> Simulator::step() {
       if (m_scene.cloth_contact.check_intersections) {
         const Timer check;
         size_t count = 0;
-        collision::find_intersections(contact->with_kinematic(end), contact->triangles(), 0, &count,
-                                      contact->cloth_triangles());
+        const VecX all = contact->with_kinematic(end);
+        collision::find_intersections(all, contact->sewn_triangles(all), 0, &count, contact->cloth_triangles());
         s.intersections = static_cast<Index>(count);
         s.check_ms = check.ms();
       }

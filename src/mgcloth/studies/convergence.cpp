@@ -105,8 +105,8 @@ ContactCheck contact_check(const physics::ClothContact* contact, const VecX& x) 
   c.pairs = cs.pairs;
   c.min_distance = cs.min_distance;
   size_t count = 0;
-  collision::find_intersections(contact->with_kinematic(x), contact->triangles(), 0, &count,
-                                contact->cloth_triangles());
+  const VecX all = contact->with_kinematic(x);
+  collision::find_intersections(all, contact->sewn_triangles(all), 0, &count, contact->cloth_triangles());
   c.intersections = static_cast<Index>(count);
   return c;
 }
