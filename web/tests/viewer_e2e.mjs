@@ -101,6 +101,19 @@ const two = {
 fs.writeFileSync(path.join(work, 'two.json'), JSON.stringify(two));
 run(['run', path.join(work, 'two.json'), '--out', layersDir, '-q']);
 
+// The walking body (a mesh obstacle) beside a small cloth, OBJ frames only: the body comes from the frames of it that
+// the run wrote (obstacles.json, obstacles_NNNNN.bin).
+const bodyDir = path.join(work, 'body');
+const walker = {
+  frames: 3, time_step: 0.1, cloth_contact: {},
+  cloths: [{ name: 'cloth', mesh: { width: 0.3, height: 0.3, vertices: 36 }, transform: { translation: [0.3, 0.2, 0.9] } }],
+  obstacles: [{ name: 'body', body: { resolution: 0.05, walk: { stand: 0.05, ramp: 0.1 } } }],
+  solver: { name: 'newton-direct', rel_grad: 1e-3, max_iters: 50 },
+  output: { format: ['obj'] },
+};
+fs.writeFileSync(path.join(work, 'walker.json'), JSON.stringify(walker));
+run(['run', path.join(work, 'walker.json'), '--out', bodyDir, '-q']);
+
 // A bench folder as `mgcloth bench convergence` writes it (two solvers, made-up traces).
 const benchDir = path.join(work, 'bench');
 fs.mkdirSync(benchDir);
@@ -179,6 +192,42 @@ try {
   const two = await stats();
   check(!ls.error && ls.surfaces?.join() === 'left,right' && two.warm > 0.01 && two.cool > 0.01,
         `two cloths in two colours (${ls.error ?? ls.surfaces?.join()}; warm ${two.warm.toFixed(3)}, cool ${two.cool.toFixed(3)})`);
+
+  // The walking body of an OBJ-only run: drawn, and posed at the frame shown, as the run wrote it.
+  const walkerView = await view(bodyDir);
+  servers.push(walkerView.child);
+  const bodyErrors = errors.length;
+  await page.goto(walkerView.url);
+  await ready();
+  const ws = await state();
+  const described = JSON.parse(fs.readFileSync(path.join(bodyDir, 'obstacles.json'), 'utf8')).meshes[0];
+  const bodyInfo = async () => (await page.evaluate(() => window.mgclothViewer.obstacles())).find((o) => o.name === 'body');
+  let bi = await bodyInfo();
+  check(!ws.error && ws.source === 'obj' && ws.obstacles?.includes('body') && bi?.visible &&
+        bi.vertices === described.vertices[1] && bi.triangles === described.triangles,
+        `obj run: the walking body is drawn (${ws.error ?? ws.obstacles?.join()}; ${bi?.vertices} vertices, ` +
+        `${bi?.triangles} triangles, obstacles.json ${described.vertices[1]}, ${described.triangles})`);
+  const withBody = await stats();
+  await page.evaluate(() => window.mgclothViewer.showObstacles(false));
+  const withoutBody = await stats();
+  await page.evaluate(() => window.mgclothViewer.showObstacles(true));
+  check(Math.abs(withBody.mean - withoutBody.mean) > 1,
+        `obj run: the body shows in the picture (mean ${withBody.mean.toFixed(1)} with, ${withoutBody.mean.toFixed(1)} without)`);
+  // Scrubbed to frame 3, the body is where obstacles_00003.bin has it.
+  const box0 = await bodyInfo();
+  await page.evaluate(() => window.mgclothViewer.seek(3));
+  bi = await bodyInfo();
+  const bin = fs.readFileSync(path.join(bodyDir, 'obstacles_00003.bin'));
+  const xyz = new Float32Array(bin.buffer, bin.byteOffset, bin.byteLength / 4);
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (let i = described.vertices[0]; i < described.vertices[0] + described.vertices[1]; ++i)
+    for (let c = 0; c < 3; ++c) { lo[c] = Math.min(lo[c], xyz[3 * i + c]); hi[c] = Math.max(hi[c], xyz[3 * i + c]); }
+  const off = Math.max(...[0, 1, 2].flatMap((c) => [Math.abs(bi.min[c] - lo[c]), Math.abs(bi.max[c] - hi[c])]));
+  const moved = Math.max(...[0, 1, 2].map((c) => Math.abs(bi.max[c] - box0.max[c])));
+  check((await state()).frameNumber === 3 && off < 1e-6 && moved > 0.005,
+        `obj run: at frame 3 the body is posed from obstacles_00003.bin (off by ${off.toExponential(1)} m, ` +
+        `moved ${moved.toFixed(3)} m since frame 0)`);
+  check(errors.length === bodyErrors, `obj run with the body: no page errors (${errors.slice(bodyErrors).join('; ') || 'none'})`);
 
   // A frame that is not there is an error the page says.
   await page.goto(`${url}?frame=99`);

@@ -6,7 +6,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { GlbFrames, ObjFrames } from './frames.js';
-import { buildObstacles } from './obstacles.js';
+import { buildObstacles, MeshObstacles } from './obstacles.js';
 import { LinePlot, parseCsv, PALETTE } from './plots.js';
 
 const params = new URLSearchParams(location.search);
@@ -22,6 +22,10 @@ const api = {
   state: { kind: null, source: null, frameIndex: -1, frameNumber: -1, frameCount: 0, time: 0, playing: false, shown: 0,
            mode: 'shaded', vertices: 0, triangles: 0 },
   play() {}, pause() {}, seek() {}, setMode() {},
+  /** The obstacles drawn: name, whether shown, vertices, triangles and world bounding box (min, max). */
+  obstacles() { return []; },
+  /** Shows or hides every obstacle (to tell what they add to a picture). */
+  showObstacles() {},
   /** Luminance statistics of a canvas (the 3D view by default), to tell a drawing from a blank one. */
   canvasStats(selector = '#view canvas') {
     const c = document.querySelector(selector);
@@ -205,7 +209,7 @@ async function startRun(listing, names) {
 
   const solid = new THREE.MeshStandardMaterial({ color: 0xb9b3aa, roughness: 0.6, metalness: 0.0 });
   const floorMaterial = new THREE.MeshStandardMaterial({ color: 0xdedbd5, roughness: 0.95, side: THREE.DoubleSide });
-  let obstacleMeshes = [], poseObstacles = () => {};
+  let obstacleMeshes = [], poseObstacles = () => {}, meshObstacles = null;
   const first = await frames.positions(0);
   const box0 = new THREE.Box3().setFromArray(first);
   if (frames.kind === 'glb') {
@@ -218,25 +222,48 @@ async function startRun(listing, names) {
       m.material = m.userData.plane ? floorMaterial : solid;
     }
     poseObstacles = (k) => frames.setFrame(k);
-  } else if (scene?.obstacles?.length) {
-    const built = buildObstacles(scene.obstacles, box0, solid);
-    for (const m of built.meshes) {
+  } else {
+    // Shapes from the scene; triangle meshes (a walking body, sequences, skins) from the frames the run wrote of
+    // them, which may be open or inconsistently oriented surfaces: drawn from both sides.
+    const built = scene?.obstacles?.length ? buildObstacles(scene.obstacles, box0, solid) : null;
+    for (const m of built?.meshes || []) {
       if (m.userData.plane) m.material = floorMaterial;
       world.add(m);
+      obstacleMeshes.push(m);
     }
-    obstacleMeshes = built.meshes;
-    poseObstacles = (k) => built.setTime(frames.frames[k].time);
+    if (names.has('obstacles.json')) {
+      const bothSides = solid.clone();
+      bothSides.side = THREE.DoubleSide;
+      meshObstacles = await MeshObstacles.open(DATA, names, bothSides);
+      for (const m of meshObstacles.meshes) {
+        world.add(m);
+        obstacleMeshes.push(m);
+      }
+    }
+    poseObstacles = async (k) => {
+      built?.setTime(frames.frames[k].time);
+      if (meshObstacles) await meshObstacles.setFrame(frames.frames[k].number);
+    };
   }
   for (const m of obstacleMeshes) m.castShadow = m.receiveShadow = true;
+  api.state.obstacles = obstacleMeshes.map((m) => m.name);
+  api.obstacles = () => obstacleMeshes.map((m) => {
+    m.updateMatrixWorld(true);
+    const b = new THREE.Box3().setFromObject(m);
+    return { name: m.name, visible: m.visible, vertices: m.geometry.attributes.position.count,
+             triangles: (m.geometry.index ? m.geometry.index.count : m.geometry.attributes.position.count) / 3,
+             min: b.min.toArray(), max: b.max.toArray() };
+  });
+  let obstaclesHidden = false;
 
   // Camera: fit the cloth (its first and shown frames in the viewer, the shown one in a picture) and the bounded
   // obstacles, seen from the front, above.
   const frameView = async () => {
     const shownBox = new THREE.Box3().setFromArray(await frames.positions(start));
     const box = RENDER ? shownBox : box0.clone().union(shownBox);
-    poseObstacles(start);
+    await poseObstacles(start);
     world.updateMatrixWorld(true);
-    for (const m of obstacleMeshes) if (!m.userData.plane) box.union(new THREE.Box3().setFromObject(m));
+    for (const m of obstacleMeshes) if (!m.userData.plane && m.visible) box.union(new THREE.Box3().setFromObject(m));
     const center = box.getCenter(new THREE.Vector3());
     const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1e-3);
     const dir = new THREE.Vector3(0.55, -1.0, 0.62).normalize();
@@ -332,12 +359,13 @@ async function startRun(listing, names) {
       if (pending === null) return;
       const want = pending;
       pending = null;
-      const p = await frames.positions(want);
+      const [p] = await Promise.all([frames.positions(want), meshObstacles?.positions(frames.frames[want].number)]);
       geometry.attributes.position.array.set(p);
       geometry.attributes.position.needsUpdate = true;
       geometry.computeVertexNormals();
       geometry.computeBoundingSphere();
-      poseObstacles(want);
+      await poseObstacles(want);
+      if (obstaclesHidden) for (const m of obstacleMeshes) m.visible = false;
       invalidate();
       current = want;
       const f = frames.frames[want];
@@ -345,7 +373,11 @@ async function startRun(listing, names) {
       label.textContent = `frame ${f.number} / ${last}   t = ${f.time.toFixed(3)} s`;
       plots.forEach((pl) => pl.setMarker(f.time));
       Object.assign(api.state, { frameIndex: want, frameNumber: f.number, time: f.time, shown: api.state.shown + 1 });
-      for (let j = 1; j <= 3; ++j) if (want + j < n) frames.positions(want + j).catch(() => {});  // read ahead
+      for (let j = 1; j <= 3; ++j) {  // read ahead
+        if (want + j >= n) break;
+        frames.positions(want + j).catch(() => {});
+        meshObstacles?.positions(frames.frames[want + j].number).catch(() => {});
+      }
     }).catch(fail);
     return showing;
   }
@@ -371,6 +403,11 @@ async function startRun(listing, names) {
     else if (e.key === 'ArrowLeft') { pause(); show(Math.max(0, current - 1)); }
   });
   Object.assign(api, { play, pause, seek: (k) => { pause(); return show(k); }, setMode });
+  api.showObstacles = (on) => {
+    obstaclesHidden = !on;
+    for (const m of obstacleMeshes) m.visible = !!on;
+    return show(current);  // poses them again, which shows each mesh that has positions at this frame
+  };
 
   if (frames.kind === 'glb' && frameFiles.length) {
     $('source-label').hidden = false;
@@ -390,11 +427,13 @@ async function startRun(listing, names) {
     const fps = Math.max(1, Math.min(120, parseFloat(fpsInput.value) || 30));
     if (playing && pending === null && now - lastStep >= 1000 / fps) {
       const next = (current + 1) % n;
-      if (frames.isLoaded(next) || frames.kind === 'glb') {
+      const number = frames.frames[next].number;
+      if ((frames.isLoaded(next) || frames.kind === 'glb') && (!meshObstacles || meshObstacles.isLoaded(number))) {
         lastStep = now;
         show(next);
       } else {
         frames.positions(next).catch(fail);
+        meshObstacles?.positions(number).catch(fail);
       }
     }
     // Drawn only when something changed: SwiftShader (headless Chromium) draws on the CPU, and a laptop's GPU

@@ -6,6 +6,7 @@
 #include <mgcloth/sim/recorder.hpp>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -22,6 +23,7 @@ constexpr const char* kFramesFile = "frames.bin";
 constexpr const char* kGlbFile = "animation.glb";
 constexpr const char* kCheckpointFile = "checkpoint.bin";
 constexpr const char* kSurfacesFile = "surfaces.json";
+constexpr const char* kObstaclesFile = "obstacles.json";
 
 template <class T>
 void put(std::ostream& o, const T& v) {
@@ -31,12 +33,17 @@ void put(std::ostream& o, const T& v) {
 bool is_frame_file(const std::string& name) {
   return name.size() == 15 && name.rfind("frame_", 0) == 0 && name.compare(11, 4, ".obj") == 0;
 }
+/// obstacles_NNNNN.bin
+bool is_obstacle_frame_file(const std::string& name) {
+  return name.size() == 19 && name.rfind("obstacles_", 0) == 0 && name.compare(15, 4, ".bin") == 0 &&
+         name.find_first_not_of("0123456789", 10) == 15;
+}
 /// Whether a run writes a file of this name into its folder (so that a temporary for it is one of ours).
 bool is_run_output(const std::string& name) {
   for (const char* own : {kCheckpointFile, kFramesFile, kGlbFile, "stats.csv", "trace.csv", "probes.csv", "scene.resolved.json",
-                          kSurfacesFile})
+                          kSurfacesFile, kObstaclesFile})
     if (name == own) return true;
-  return is_frame_file(name);
+  return is_frame_file(name) || is_obstacle_frame_file(name);
 }
 /// Temporaries of the atomic writes of a run that was killed, or that failed on a full disk before the temporaries
 /// were removed on failure, would otherwise stay in the folder for good.
@@ -118,6 +125,15 @@ Recorder::Recorder(fs::path dir, const Simulator& sim, bool trace)
   m_combined.u.resize(2, offset);
   for (Index i = 0; i < offset; ++i) m_combined.u.col(i) = u[i];
   m_combined.x = Mat3X::Zero(3, offset);
+  // The OBJ frames hold the cloths only; the mesh obstacles (a walking body, a sequence, a skin, an OBJ file) get
+  // frames of their own beside them (obstacles_NNNNN.bin), for the viewer.
+  if (m_write_obj) {
+    for (size_t o = 0; o < sim.obstacles().size(); ++o) {
+      if (!sim.obstacles()[o].mesh) continue;
+      m_mesh_obstacles.push_back(o);
+      m_obstacle_vertices += static_cast<Index>(sim.obstacles()[o].mesh->vertices.cols());
+    }
+  }
   if (m_write_glb) check_glb_size(sim);
 }
 
@@ -166,9 +182,39 @@ std::string Recorder::stats_row(const StepStats& s) {
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }
 
+fs::path Recorder::obstacle_frame_path(const fs::path& dir, int frame) {
+  return dir / fmt::format("obstacles_{:05d}.bin", frame);
+}
+
+nlohmann::ordered_json Recorder::obstacle_meshes(const Simulator& sim) const {
+  // In this key order (the indices last), so that the file reads well.
+  auto meshes = nlohmann::ordered_json::array();
+  Index first = 0;
+  for (const size_t o : m_mesh_obstacles) {
+    const auto& ob = sim.obstacles()[o];
+    const Index n = static_cast<Index>(ob.mesh->vertices.cols());
+    std::vector<Index> indices;
+    indices.reserve(3 * ob.mesh->tris.size());
+    for (const Tri& t : ob.mesh->tris) indices.insert(indices.end(), t.begin(), t.end());
+    nlohmann::ordered_json m;
+    m["name"] = ob.name;
+    m["obstacle"] = o;
+    m["vertices"] = {first, n};
+    m["triangles"] = ob.mesh->tris.size();
+    m["indices"] = indices;
+    meshes.push_back(std::move(m));
+    first += n;
+  }
+  nlohmann::ordered_json j;
+  j["vertices"] = m_obstacle_vertices;
+  j["meshes"] = std::move(meshes);
+  return j;
+}
+
 void Recorder::write_description(const Simulator& sim) const {
   write_file_atomic(m_dir / "scene.resolved.json", to_json(sim.scene()).dump(2) + "\n");
   write_file_atomic(m_dir / kSurfacesFile, m_surfaces.dump(2) + "\n");
+  if (!m_mesh_obstacles.empty()) write_file_atomic(m_dir / kObstaclesFile, obstacle_meshes(sim).dump() + "\n");
 }
 
 void Recorder::start(const Simulator& sim) {
@@ -178,9 +224,12 @@ void Recorder::start(const Simulator& sim) {
   m_trace.rows.clear();
   m_probes.rows.clear();
   // A fresh run in a folder with an older run must not leave stale frames behind that look like ours.
-  for (const auto& entry : fs::directory_iterator(m_dir))
-    if (is_frame_file(entry.path().filename().string())) fs::remove(entry.path());
+  for (const auto& entry : fs::directory_iterator(m_dir)) {
+    const std::string name = entry.path().filename().string();
+    if (is_frame_file(name) || is_obstacle_frame_file(name)) fs::remove(entry.path());
+  }
   remove_stale_temporaries(m_dir);
+  if (m_mesh_obstacles.empty()) fs::remove(m_dir / kObstaclesFile);
   fs::remove(m_dir / kGlbFile);
   fs::remove(m_dir / kFramesFile);
   if (m_write_glb) reset_frames_file();
@@ -204,7 +253,28 @@ void Recorder::write_frame(const Simulator& sim) const {
   if (sim.frame() % sim.scene().output.every != 0) return;
   const Mat3X x = surface_positions(sim);
   if (m_write_obj) mesh::write_obj(frame_path(m_dir, sim.frame()), m_combined, x, 1.0);
+  if (m_write_obj) write_obstacle_frame(sim);
   if (m_write_glb) append_frame(sim.frame(), sim.time(), x);
+}
+
+void Recorder::write_obstacle_frame(const Simulator& sim) const {
+  if (m_mesh_obstacles.empty()) return;
+  static_assert(sizeof(float) == 4 && std::endian::native == std::endian::little, "obstacles_NNNNN.bin is little-endian float32");
+  std::vector<float> x;
+  x.reserve(3 * static_cast<size_t>(m_obstacle_vertices));
+  for (const size_t o : m_mesh_obstacles) {
+    // Where the cloth-contact term has the mesh at the end of the frame: its pose and shape at the frame's time.
+    const auto& ob = sim.obstacles()[o];
+    const VecX p = ob.mesh_positions(sim.time());
+    if (p.size() != 3 * ob.mesh->vertices.cols())
+      throw_error("obstacle \"{}\": {} vertices at t = {}, {} at the start", ob.name, p.size() / 3, sim.time(),
+                  ob.mesh->vertices.cols());
+    for (Index i = 0; i < p.size(); ++i) x.push_back(static_cast<float>(p[i]));
+  }
+  write_file_atomic(
+      obstacle_frame_path(m_dir, sim.frame()),
+      [&](std::ostream& o) { o.write(reinterpret_cast<const char*>(x.data()), static_cast<std::streamsize>(sizeof(float) * x.size())); },
+      true);
 }
 
 std::size_t Recorder::frame_record_bytes() const {

@@ -10,7 +10,9 @@ namespace mgcloth::sim {
 /// probes.csv for shells with probes, stats.csv (one row per step and cloth), scene.resolved.json (every default
 /// filled in), surfaces.json (which vertices and triangles of the frames belong to which body: a list of
 /// {"name", "vertices": [first, count], "triangles": [first, count]}, so that a viewer or script can tell the
-/// cloths apart) and checkpoint.bin (sim::Checkpoint after the last complete frame). Every file is written
+/// cloths apart), with format "obj" and mesh obstacles obstacles.json (their triangles, once) and
+/// obstacles_NNNNN.bin (their posed vertices in each written frame, float32; see write_obstacle_frame) and
+/// checkpoint.bin (sim::Checkpoint after the last complete frame). Every file is written
 /// atomically, so an interrupted run leaves only complete files, and `resume()` continues it from its last
 /// checkpoint. The one exception is frames.bin, the glb format's record of the frames so far: it is only appended
 /// to (a long run must not rewrite every earlier frame each frame), and resume() cuts it back to the checkpoint.
@@ -37,6 +39,8 @@ class Recorder {
   static std::string stats_header();
   static std::string stats_row(const StepStats& s);
   static std::filesystem::path frame_path(const std::filesystem::path& dir, int frame);
+  /// obstacles_NNNNN.bin: the mesh obstacles' vertices at frame `frame` (written with frame_path's OBJ).
+  static std::filesystem::path obstacle_frame_path(const std::filesystem::path& dir, int frame);
 
  private:
   /// With the glb format: InputError when the scene's frames would not fit in a .glb (glb_binary_bytes), so that
@@ -47,6 +51,13 @@ class Recorder {
   /// scene.resolved.json and surfaces.json: what the run is, written by start() and again by resume().
   void write_description(const Simulator& sim) const;
   void write_frame(const Simulator& sim) const;
+  /// obstacles.json: per mesh obstacle (in scene order) its name, its index in the scene's obstacles, its range
+  /// of the vertices of the obstacle frames, its number of triangles and their vertex indices (3 each, into its
+  /// own vertices).
+  nlohmann::ordered_json obstacle_meshes(const Simulator& sim) const;
+  /// obstacles_NNNNN.bin: the world positions of every mesh obstacle's vertices at the simulator's time, meshes
+  /// in obstacles.json's order, as little-endian float32 x, y, z per vertex and nothing else.
+  void write_obstacle_frame(const Simulator& sim) const;
   /// frames.bin: a header (magic, scene fingerprint, vertex count), then per written frame its number, its time
   /// and the float32 positions of m_combined's vertices.
   void reset_frames_file() const;
@@ -73,6 +84,8 @@ class Recorder {
   bool m_record_probes = false;
   bool m_record_trace;
   bool m_write_obj = false, m_write_glb = false;  ///< output.format
+  std::vector<size_t> m_mesh_obstacles;  ///< indices into sim.obstacles() of the mesh obstacles
+  Index m_obstacle_vertices = 0;         ///< their vertices, all together
 };
 
 /// FNV-1a hash of the physical content of a scene (everything but frame count and output settings), so that a
