@@ -208,6 +208,9 @@ async function startRun(listing, names) {
   world.add(cloth);
 
   const solid = new THREE.MeshStandardMaterial({ color: 0xb9b3aa, roughness: 0.6, metalness: 0.0 });
+  // Mesh obstacles may be open (a funnel) or inconsistently oriented: drawn from both sides.
+  const bothSides = solid.clone();
+  bothSides.side = THREE.DoubleSide;
   const floorMaterial = new THREE.MeshStandardMaterial({ color: 0xdedbd5, roughness: 0.95, side: THREE.DoubleSide });
   let obstacleMeshes = [], poseObstacles = () => {}, meshObstacles = null;
   const first = await frames.positions(0);
@@ -219,7 +222,7 @@ async function startRun(listing, names) {
       m.geometry.computeVertexNormals();
       // mgcloth writes a plane as one square (4 vertices) sized to lie under the whole animation.
       m.userData.plane = m.geometry.attributes.position.count === 4;
-      m.material = m.userData.plane ? floorMaterial : solid;
+      m.material = m.userData.plane ? floorMaterial : bothSides;
     }
     poseObstacles = (k) => frames.setFrame(k);
   } else {
@@ -232,8 +235,6 @@ async function startRun(listing, names) {
       obstacleMeshes.push(m);
     }
     if (names.has('obstacles.json')) {
-      const bothSides = solid.clone();
-      bothSides.side = THREE.DoubleSide;
       meshObstacles = await MeshObstacles.open(DATA, names, bothSides);
       for (const m of meshObstacles.meshes) {
         world.add(m);
