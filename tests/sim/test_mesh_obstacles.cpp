@@ -8,6 +8,7 @@
 #include <mgcloth/mesh/pattern.hpp>
 #include <mgcloth/sim/gltf_export.hpp>
 #include <mgcloth/sim/gltf_skin.hpp>
+#include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/sim/simulator.hpp>
 
 #include "resume_fixture.hpp"
@@ -410,4 +411,23 @@ TEST(MeshObstacles, ASkirtSewnFromItsPatternClosesItsSeamsAroundTheBody) {
   skirt["mesh"]["pattern"] = "nowhere.json";
   const std::string m = scene_error(scene(skirt, {{"body", Json::object()}}, 1), scratch.dir);
   EXPECT_TRUE(has(m, "cloths[0].mesh.pattern") && has(m, "nowhere.json")) << m;
+}
+
+// A run must not resume with an edited pattern: the checkpoint's scene fingerprint holds the file's content.
+TEST(MeshObstacles, ThePatternFilesContentIsPartOfTheScenesFingerprint) {
+  Scratch scratch("pattern_fingerprint");
+  const fs::path pattern = scratch.dir / "skirt.json";
+  std::string text = read_file(fs::path(MGCLOTH_SOURCE_DIR) / "scenes/patterns/skirt.json");
+  write_file_atomic(pattern, text);
+  const Json skirt = {{"name", "skirt"},
+                      {"mesh", {{"pattern", pattern.string()}, {"resolution", 0.05}}},
+                      {"material", {{"preset", "cotton"}}}};
+  const Json j = scene(skirt, {{"name", "body"}, {"body", {{"resolution", 0.05}}}}, 1);
+  const std::uint64_t before = sim::scene_fingerprint(sim::parse_scene(j, "a.json", scratch.dir));
+  EXPECT_EQ(sim::scene_fingerprint(sim::parse_scene(j, "a.json", scratch.dir)), before);
+  const size_t at = text.find("0.36");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 4, "0.37");
+  write_file_atomic(pattern, text);
+  EXPECT_NE(sim::scene_fingerprint(sim::parse_scene(j, "a.json", scratch.dir)), before);
 }

@@ -89,6 +89,10 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
       }
     }
   }
+  // Likewise a cloth's OBJ file or sewing pattern.
+  for (const auto& c : scene.cloths)
+    for (const std::string& file : {c.mesh.file, c.mesh.pattern})
+      if (!file.empty()) meshes += read_file(file);
   return fnv1a(j.dump() + meshes);
 }
 
