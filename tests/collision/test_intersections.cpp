@@ -67,6 +67,29 @@ TEST(Intersections, SharedVertexWithOneTrianglePassingThroughTheOther) {
   EXPECT_EQ(count(inside, {{0, 1, 2}, {0, 3, 4}}), 1u);
 }
 
+// The two sides of a closed seam: points 0 and 5 are distinct vertices joined as one (each triangle keeps its own
+// point's position), touching there only; an edge passing through the other triangle still counts.
+TEST(Intersections, JoinedPointsCountAsSharedWithEachTriangleAtItsOwnPosition) {
+  const VecX x = points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-1, 0, 1}, {0, -1, 1}, {0, 0, 1e-5}});
+  const std::vector<Tri> t{{0, 1, 2}, {5, 3, 4}};
+  const std::vector<Index> joined{0, 1, 2, 3, 4, 0};
+  const auto found = [&](const VecX& y, const std::vector<Index>* j) {
+    size_t n = 0;
+    find_intersections(y, t, 100, &n, SIZE_MAX, j);
+    return n;
+  };
+  EXPECT_EQ(found(x, &joined), 0u);
+  VecX on = x;
+  vertex(on, 5) = Vec3(0.0, 0.0, 0.0);  // the seam's sides at one place: distinct points that touch
+  EXPECT_EQ(found(on, nullptr), 1u);
+  EXPECT_EQ(found(on, &joined), 0u);
+  // Triangle 1's far edge pierces triangle 0: an intersection, joined or not.
+  VecX through = points({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.3, 0.3, 1}, {0.3, 0.3, -1}, {0, 0, 1e-5}});
+  EXPECT_EQ(found(through, &joined), 1u);
+  const std::vector<Index> short_list{0, 1};
+  EXPECT_THROW(found(x, &short_list), Error);
+}
+
 TEST(Intersections, SharedVertexCoplanarFans) {
   const std::vector<Tri> t = {{0, 1, 2}, {0, 3, 4}};
   // Angles at the shared point 0: triangle 0 spans 0°–90°.

@@ -154,6 +154,7 @@ TEST(ClothContact, TheTwoSidesOfAClosedSeamAreNotContactPairs) {
   EXPECT_GT(cut.stats(x).pairs, 0);
   EXPECT_EQ(cut.value(x), kInf);
   ClothContact c({s}, 2 * n, ClothContactParams{});
+  c.close_seams(x);
   c.update_stencils(x);
   EXPECT_EQ(c.stats(x).pairs, 0);
   EXPECT_EQ(c.value(x), 0.0);
@@ -161,13 +162,20 @@ TEST(ClothContact, TheTwoSidesOfAClosedSeamAreNotContactPairs) {
   VecX slide = VecX::Zero(x.size());
   for (Index i = n; i < 2 * n; ++i) slide[3 * i + 1] = 1e-3;
   EXPECT_EQ(c.max_step(x, slide, 1.0), 1.0);
-  // The checker sees the closed seam as joined: its points welded, no crossing; the raw triangles touch there.
+  // The checker sees the closed seam as joined: no crossing; without the joining, the triangles touch there.
   EXPECT_GT(collision::find_intersections(x, c.triangles()).size(), 0u);
-  EXPECT_EQ(collision::find_intersections(x, c.sewn_triangles(x)).size(), 0u);
-  // An open seam (the panel lifted 1 cm) is not welded.
+  EXPECT_EQ(collision::find_intersections(x, c.triangles(), 100, nullptr, SIZE_MAX, &c.joined_points()).size(), 0u);
+  // An open seam (the panel lifted 1 cm) is not joined, and its two sides are contact like any primitives: the
+  // panel coming down onto its seam is stopped by the layer.
   VecX open = x;
   for (Index i = n; i < 2 * n; ++i) open[3 * i + 2] += 0.01;
-  EXPECT_EQ(c.sewn_triangles(open), c.triangles());
+  c.close_seams(open);
+  EXPECT_EQ(c.joined_points()[static_cast<size_t>(s.stitch_groups[0][1])], s.stitch_groups[0][1]);
+  VecX down = VecX::Zero(x.size());
+  for (Index i = n; i < 2 * n; ++i) down[3 * i + 2] = -0.01;
+  EXPECT_LT(c.max_step(open, down, 1.0), 1.0);
+  c.close_seams(x);
+  EXPECT_EQ(c.max_step(open, down, 1.0), 1.0);
   // Folded flat onto panel a (inside its layer), panel b's interior is contact again, away from the seam.
   VecX flat = x;
   for (Index i = n; i < 2 * n; ++i) {

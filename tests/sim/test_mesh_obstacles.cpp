@@ -83,9 +83,10 @@ void run_checked(sim::Simulator& s, int frames, bool converged = false) {
     const physics::ClothContact* c = group.cloth_contact();
     ASSERT_TRUE(c);
     ASSERT_GT(c->num_kinematic(), 0);
-    // The checker sees the garment as sewn: triangles across a closed seam share its point (sewn_triangles).
+    // The checker sees the garment as sewn: triangles across a closed seam share its point (joined_points).
     const VecX all = c->with_kinematic(group.x());
-    ASSERT_EQ(collision::find_intersections(all, c->sewn_triangles(all), 100, nullptr, c->cloth_triangles()).size(),
+    ASSERT_EQ(collision::find_intersections(all, c->triangles(), 100, nullptr, c->cloth_triangles(), &c->joined_points())
+                  .size(),
               0u)
         << "frame " << f + 1;
     const geometry::Obstacle& o = group.mesh_obstacles()[0];

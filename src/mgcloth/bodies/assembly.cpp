@@ -93,6 +93,7 @@ VecX Assembly::prepare_step(const StepTime& step) {
   if (m_contact) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
     m_contact->reset_near();
+    m_contact->close_seams(from);
     if (m_meshes.empty()) {
       const VecX d = out - from;
       out = from + objective().max_step(from, d, 1.0) * d;
@@ -276,6 +277,7 @@ void Assembly::add_cloth_contact(const physics::ClothContactParams& params, cons
   m_sweep_pad = std::min(0.5 * edge, 0.05) + thickest;
   auto term = std::make_unique<physics::ClothContact>(std::move(surfaces), num_points(), params, std::move(kinematic));
   m_contact = term.get();
+  m_contact->close_seams(x());  // seams sewn already (a garment read closed) are joined from the start
   add_coupling(std::move(term));
 }
 

@@ -65,7 +65,7 @@ bool intersect_beyond_shared(const Tri& ta, const std::array<Point, 3>& A, const
 }  // namespace
 
 std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tri>& triangles, size_t max_pairs,
-                                             size_t* count, size_t fixed_from) {
+                                             size_t* count, size_t fixed_from, const std::vector<Index>* joined) {
   const Index points = static_cast<Index>(x.size() / 3);
   const Index n = static_cast<Index>(triangles.size());
   std::vector<std::array<Point, 3>> corners(n);
@@ -80,6 +80,8 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
         throw_error("intersection check: point {} of triangle {} is not finite ({}, {}, {})", p, t, x[3 * p],
                     x[3 * p + 1], x[3 * p + 2]);
     }
+  if (joined && static_cast<Index>(joined->size()) != points)
+    throw_error("intersection check: {} joined entries for {} points", joined->size(), points);
   parallel_for(n, [&](Index t) {
     for (int k = 0; k < 3; ++k) {
       const auto p = vertex(x, triangles[t][k]);
@@ -106,7 +108,22 @@ std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tr
   std::vector<char> hit(candidates.size(), 0);
   parallel_for(static_cast<Index>(candidates.size()), [&](Index k) {
     const auto [a, b] = candidates[k];
-    hit[k] = intersect_beyond_shared(triangles[a], corners[a], triangles[b], corners[b]);
+    if (!joined) {
+      hit[k] = intersect_beyond_shared(triangles[a], corners[a], triangles[b], corners[b]);
+      return;
+    }
+    // Shared points by their joined names, positions each triangle's own.
+    Tri ja = triangles[a], jb = triangles[b];
+    for (Index& v : ja) v = (*joined)[static_cast<size_t>(v)];
+    for (Index& v : jb) v = (*joined)[static_cast<size_t>(v)];
+    // A triangle with two points of one group (at a seam's end) keeps its own names: the cases below need three
+    // distinct corners.
+    const auto distinct = [](const Tri& t) { return t[0] != t[1] && t[1] != t[2] && t[0] != t[2]; };
+    if (!distinct(ja) || !distinct(jb)) {
+      ja = triangles[a];
+      jb = triangles[b];
+    }
+    hit[k] = intersect_beyond_shared(ja, corners[a], jb, corners[b]);
   });
   std::vector<TrianglePair> pairs;
   for (size_t k = 0; k < candidates.size(); ++k)

@@ -20,8 +20,14 @@ struct TrianglePair {
 /// skipped. At most `max_pairs` pairs are returned (the count of all is `count`, if non-null). Pairs of two triangles
 /// at or after `fixed_from` are not checked: obstacle meshes come last, and whether an obstacle crosses itself or
 /// another obstacle is no question of the cloth's guarantee.
+///
+/// `joined` (optional, one entry per point): points with equal entries count as one point where triangles share it,
+/// each triangle keeping its own point's position: the two sides of a closed seam, which meet there by construction
+/// but are not the same vertex. A triangle pair sharing one such point then intersects only where an edge of one
+/// opposite it meets the other.
 std::vector<TrianglePair> find_intersections(const VecX& x, const std::vector<Tri>& triangles, size_t max_pairs = 100,
                                              size_t* count = nullptr,
-                                             size_t fixed_from = std::numeric_limits<size_t>::max());
+                                             size_t fixed_from = std::numeric_limits<size_t>::max(),
+                                             const std::vector<Index>* joined = nullptr);
 
 }  // namespace mgcloth::collision

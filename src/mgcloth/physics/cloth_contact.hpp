@@ -139,10 +139,11 @@ class ClothContact final : public Term {
   const std::vector<ContactSurface>& surfaces() const { return m_surfaces; }
   /// Every triangle of every surface, in the numbering of with_kinematic(x).
   const std::vector<Tri>& triangles() const { return m_topology.triangles; }
-  /// triangles() as sewn at x (with_kinematic numbering), for the intersection checker: each stitched point within
-  /// its layer of its stitch group's first point is replaced by that point, so that triangles meeting across a closed
-  /// seam share the point there as triangles of one chart do. Points of a seam still open keep their own.
-  std::vector<Tri> sewn_triangles(const VecX& x) const;
+  /// Per point of triangles(), the first point of its stitch group where the seam was closed at the step's start
+  /// (close_seams), else itself: the intersection checker's `joined` points (collision::find_intersections), so
+  /// that triangles meeting across a closed seam share the point there as triangles of one chart do and as contact
+  /// treats them. Points of an open seam keep their own: contact kept them apart.
+  const std::vector<Index>& joined_points() const { return m_seam_point; }
   /// How many of triangles() are the cloths'; the kinematic surfaces' follow them.
   size_t cloth_triangles() const { return m_cloth_triangles; }
   Index num_kinematic() const { return m_m; }
@@ -166,6 +167,11 @@ class ClothContact final : public Term {
   /// Drops the cache of near pairs, which local updates make depend on the iterates since its last rebuild: a step
   /// that starts from a fresh one sees the same pairs whether the run was resumed before it or not.
   void reset_near() { m_near_base.resize(0); }
+  /// The seams closed at a step's start x: a stitch group whose points all lie within twice their layer of its first
+  /// point. During the step, primitives sharing a point of a closed seam are never paired (never_paired); an open
+  /// seam's two sides are contact like any other primitives, so that panels being sewn do not pass through each
+  /// other (at the ends of seams, where several meet). Drops the cache of near pairs, whose pairs it changes.
+  void close_seams(const VecX& x);
   /// The detection times accumulated since the last call, which resets them.
   ContactTimes take_times() const {
     const ContactTimes t = m_times;
@@ -235,7 +241,8 @@ class ClothContact final : public Term {
   ClothContactParams m_params;
   collision::SurfaceTopology m_topology;
   std::vector<Index> m_surface_of_point;  ///< per point (kinematic ones too), its surface (-1: none)
-  std::vector<Index> m_seam_point;        ///< per point, the first point of its stitch group (itself if unsewn)
+  std::vector<Index> m_stitch_first;      ///< per point, the first point of its stitch group (itself if unsewn)
+  std::vector<Index> m_seam_point;        ///< m_stitch_first where the seam is closed (close_seams), else itself
   std::vector<Index> m_chart;             ///< per point, its connected piece of triangles (panels are pieces)
   std::vector<Index> m_triangle_start;    ///< first triangle of each surface in m_topology.triangles
   VecX m_point_area, m_edge_area, m_point_r;

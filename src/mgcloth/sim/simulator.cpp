@@ -134,8 +134,8 @@ void Simulator::add_cloth_contact() {
     if (!contact) continue;
     size_t count = 0;
     const VecX all = contact->with_kinematic(group->x());
-    const auto found = collision::find_intersections(all, contact->sewn_triangles(all), 5, &count,
-                                                     contact->cloth_triangles());
+    const auto found = collision::find_intersections(all, contact->triangles(), 5, &count,
+                                                     contact->cloth_triangles(), &contact->joined_points());
     if (found.empty()) continue;
     std::vector<std::string> named;
     const auto side = [&](Index t) {
@@ -302,7 +302,8 @@ std::vector<StepStats> Simulator::step() {
         const Timer check;
         size_t count = 0;
         const VecX all = contact->with_kinematic(end);
-        collision::find_intersections(all, contact->sewn_triangles(all), 0, &count, contact->cloth_triangles());
+        collision::find_intersections(all, contact->triangles(), 0, &count, contact->cloth_triangles(),
+                                      &contact->joined_points());
         s.intersections = static_cast<Index>(count);
         s.check_ms = check.ms();
       }

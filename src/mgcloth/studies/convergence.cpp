@@ -106,7 +106,8 @@ ContactCheck contact_check(const physics::ClothContact* contact, const VecX& x) 
   c.min_distance = cs.min_distance;
   size_t count = 0;
   const VecX all = contact->with_kinematic(x);
-  collision::find_intersections(all, contact->sewn_triangles(all), 0, &count, contact->cloth_triangles());
+  collision::find_intersections(all, contact->triangles(), 0, &count, contact->cloth_triangles(),
+                                &contact->joined_points());
   c.intersections = static_cast<Index>(count);
   return c;
 }

@@ -1,0 +1,35 @@
+"""Summarizes bench/table1/run.sh OUT: Wang 2018's Table 1 columns per scene, measured on this machine.
+
+Per scene: cloth vertices and triangles and smoother colors per level (from `mgcloth hierarchy`), then from the
+run's stats.csv: FMG cycles per step (min to max, mean), ms per cycle (the solve's time over its cycles, contact
+energy and its detection inside the cycle included), ms per frame (every step's wall time, the intersection
+checker excluded), and the contact share: collision detection's part of the step (broad phase, distances, CCD).
+"""
+import csv, json, pathlib, sys
+
+out = pathlib.Path(sys.argv[1])
+paper = {"funnel": "120K / 238K, 6–13 colors, 100 ms/cycle, 200 ms/step",
+         "dress": "132K / 264K, 5–14 colors, 111 ms/cycle, 333 ms/step",
+         "gown": "104K / 208K, 5–12 colors, 84 ms/cycle, 252 ms/step"}
+print("| scene | vertices | triangles | colors (levels) | steps | FMG cycles/step min–max (mean) | ms/cycle | "
+      "ms/frame | contact share | checker ms/step | intersections | Wang 2018 (GTX 1080, no collisions) |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+for d in sorted(p for p in out.iterdir() if (p / "run" / "stats.csv").exists()):
+    levels = []
+    for h in sorted((d / "hierarchy").glob("*/hierarchy.json")):
+        levels += json.load(open(h))["levels"]
+    verts = sum(l["vertices"] for l in levels if l["level"] == 0)
+    tris = sum(l["triangles"] for l in levels if l["level"] == 0)
+    colors = [l["colors"] for l in levels]
+    rows = list(csv.DictReader(open(d / "run" / "stats.csv")))
+    its = [int(r["iterations"]) for r in rows]
+    solve = sum(float(r["solve_ms"]) for r in rows)
+    wall = sum(float(r["wall_ms"]) for r in rows)
+    check = sum(float(r["check_ms"]) for r in rows)
+    detect = sum(float(r["contact_detection_ms"]) for r in rows)
+    frames = len({r["frame"] for r in rows})
+    inter = sum(int(r["intersections"]) for r in rows)
+    print(f"| {d.name} | {verts:,} | {tris:,} | {min(colors)}–{max(colors)} ({len(colors)}) | {len(rows)} | "
+          f"{min(its)}–{max(its)} ({sum(its) / len(rows):.1f}) | {solve / max(sum(its), 1):.0f} | "
+          f"{(wall - check) / frames:.0f} | {detect / max(wall - check, 1e-9):.0%} | {check / len(rows):.0f} | {inter} | "
+          f"{paper.get(d.name, '')} |")
