@@ -659,11 +659,10 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   // The additive CCD's first step goes to (1 − s)·d0/l_p, l_p the pair's motion relative to its own mean (the bound
   // it computes), and where that passes the step's end it returns 1 at once: a pair whose l_p is below (1 − s) times
   // a lower bound of d0 keeps its t = 1 without the CCD. In a cloth at rest or falling freely that is nearly every
-  // cached pair, and where the mesh spacing is below the layer's reach r + 2δ they are many: a flat 120K sheet with
-  // a 2 mm layer caches 5.5M pairs of its own primitives with none in contact, whose CCD took 0.6 s of every line
-  // search (1 thread). The bound is the cached distance at x where there is one (exact below r + δ, a lower
-  // bound beyond), else the gap between the pair's boxes, else the exact distance; 0.99 keeps the test on the safe
-  // side of rounding, so the result is the CCD's to the bit.
+  // cached pair, and where the mesh spacing is below the layer's reach r + 2δ a flat sheet caches many pairs of its
+  // own primitives (bench/RESULTS.md, "Wang 2018's Table 1"). The bound is the cached distance at x where there is
+  // one (exact below r + δ, a lower bound beyond), else the gap between the pair's boxes, else the exact distance;
+  // 0.99 keeps the test on the safe side of rounding, so the result is the CCD's to the bit.
   const bool cached = m_eval_generation == m_near_generation && m_eval_x.size() == x.size() && m_eval_x == x;
   const double free_fraction = 0.99 * (1.0 - s);
   parallel_for(static_cast<Index>(t.size()), [&](Index k) {
