@@ -34,7 +34,7 @@ namespace fs = std::filesystem;
 namespace {
 
 struct ConvergenceArgs {
-  std::string scene, solvers, out, state_cache, body, warmup;
+  std::string scene, solvers, out, state_cache, body, warmup, checkpoint;
   int step = 0;
   double budget = 10.0;
   double reference_seconds = 600.0;
@@ -43,6 +43,7 @@ struct ConvergenceArgs {
   int vertices = 0;
   bool quiet = false;
   CLI::Option* vertices_option = nullptr;
+  CLI::Option* step_option = nullptr;
 } g_conv;
 
 struct ScalabilityArgs {
@@ -189,7 +190,17 @@ void set_log_level(bool quiet) { logger().set_level(quiet ? spdlog::level::warn 
 int run_convergence_command() {
   check_scene_file(g_conv.scene);
   const auto specs = with_prefix("--solvers", [] { return studies::parse_solver_list(g_conv.solvers); });
-  if (g_conv.step < 1) throw_input_error("--step: must be at least 1 (got {})", g_conv.step);
+  const bool step_given = g_conv.step_option->count() > 0;
+  if (g_conv.checkpoint.empty() && !step_given) throw_input_error("--step is required without --from-checkpoint");
+  if (step_given && g_conv.step < 1) throw_input_error("--step: must be at least 1 (got {})", g_conv.step);
+  if (!g_conv.checkpoint.empty()) {
+    if (g_conv.vertices_option->count() > 0)
+      throw_input_error("--vertices: a checkpoint holds the state of the scene's own cloths; drop --vertices or "
+                        "--from-checkpoint");
+    if (!g_conv.state_cache.empty() || !g_conv.warmup.empty())
+      throw_input_error("--from-checkpoint: the start state is the checkpoint's; drop --state-cache and "
+                        "--warmup-solver");
+  }
   if (!(g_conv.budget > 0.0) || !std::isfinite(g_conv.budget))
     throw_input_error("--budget: must be a positive number of seconds (got {})", g_conv.budget);
   if (g_conv.max_iters < 1) throw_input_error("--max-iters: must be at least 1 (got {})", g_conv.max_iters);
@@ -201,6 +212,7 @@ int run_convergence_command() {
     scene = with_prefix("--vertices", [&] { return studies::with_vertex_count(std::move(scene), g_conv.vertices); });
   studies::ConvergenceOptions opt;
   opt.step = g_conv.step;
+  opt.checkpoint = g_conv.checkpoint;
   opt.solvers = specs;
   opt.budget_seconds = g_conv.budget;
   opt.max_iters = g_conv.max_iters;
@@ -489,7 +501,12 @@ void add_bench_command(CLI::App& app) {
   auto* conv = bench->add_subcommand(
       "convergence", "Relative energy error against time of several solvers on the same frozen step (Wang 2018, Fig. 4)");
   conv->add_option("scene", g_conv.scene, "Scene file (JSON)")->required();
-  conv->add_option("--step", g_conv.step, "K: benchmark the scene's K-th step (K - 1 steps are simulated first)")->required();
+  g_conv.step_option = conv->add_option("--step", g_conv.step,
+                  "K: benchmark the scene's K-th step (K - 1 steps are simulated first); with --from-checkpoint, "
+                  "the checkpoint's step + 1 (the default there)");
+  conv->add_option("--from-checkpoint", g_conv.checkpoint,
+                   "Start from a run's checkpoint.bin (`mgcloth run` of this scene) instead of simulating: benchmarks "
+                   "the step after it");
   conv->add_option("--solvers", g_conv.solvers,
                    "Comma-separated solvers, each NAME or NAME@key=value@... (e.g. newton,newton@linear_solver=pcg-mg)")
       ->required();

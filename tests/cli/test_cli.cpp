@@ -386,6 +386,44 @@ TEST_F(Cli, BenchConvergenceWritesCsvJsonAndPlot) {
   expect_plot(out / "convergence.png");
 }
 
+// A step late in a long run is benchmarked from the run's checkpoint, with nothing simulated again: the frozen
+// problem is the one the run's own steps lead to (the same start energy as simulating them with the run's solver).
+TEST_F(Cli, BenchConvergenceStartsFromARunsCheckpoint) {
+  const auto scene = small_scene();
+  ASSERT_EQ(run("run " + scene + " -q -j 1 --frames 2 --out " + (dir / "run").string()).code, 0);
+  const std::string bench = "bench convergence " + scene + " --solvers newton --budget 2 --max-iters 30 -j 1 -q";
+  const auto a = run(bench + " --from-checkpoint " + (dir / "run" / "checkpoint.bin").string() + " --out " +
+                     (dir / "a").string());
+  ASSERT_TRUE(a.code == 0 || plot_unavailable(a)) << a.out;
+  const auto b = run(bench + " --step 3 --warmup-solver fmg --out " + (dir / "b").string());
+  ASSERT_TRUE(b.code == 0 || plot_unavailable(b)) << b.out;
+  const auto ra = mgcloth::parse_json(mgcloth::read_file(dir / "a" / "convergence.json"), "a");
+  const auto rb = mgcloth::parse_json(mgcloth::read_file(dir / "b" / "convergence.json"), "b");
+  EXPECT_EQ(ra.at("step"), 3);  // two frames of one step each, then the benchmarked one
+  EXPECT_EQ(ra.at("start_state"), "checkpoint");
+  EXPECT_EQ(rb.at("start_state"), "simulated");
+  const double ea = ra.at("references")[0].at("initial_energy").get<double>();
+  const double eb = rb.at("references")[0].at("initial_energy").get<double>();
+  EXPECT_NEAR(ea, eb, 1e-9 * std::abs(eb));
+  EXPECT_NEAR(ra.at("references")[0].at("energy").get<double>(), rb.at("references")[0].at("energy").get<double>(),
+              1e-9 * std::abs(eb));
+
+  const auto expect_error = [](const Result& r, const std::string& text) {
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find(text), std::string::npos) << r.out;
+  };
+  const std::string from = " --out " + (dir / "c").string() + " --from-checkpoint ";
+  const std::string ckpt = (dir / "run" / "checkpoint.bin").string();
+  expect_error(run(bench + from + ckpt + " --step 2"), "holds the start of step 3");
+  expect_error(run(bench + from + (dir / "none.bin").string()), "none.bin: no such checkpoint");
+  expect_error(run(bench + from + ckpt + " --vertices 200"), "--vertices");
+  expect_error(run(bench + from + ckpt + " --warmup-solver fmg"), "--warmup-solver");
+  // The run of another scene (here: another time step) wrote it.
+  const auto other = write("other.json", mgcloth::read_file(scene).insert(1, R"( "time_step": 0.02, )"));
+  expect_error(run("bench convergence " + other + " --solvers newton -q" + from + ckpt), "different scene");
+  expect_error(run(bench + " --out " + (dir / "c").string()), "--step is required");
+}
+
 TEST_F(Cli, BenchWithoutPythonStillWritesTheDataAndFails) {
   ::setenv("MGCLOTH_PYTHON", "/nonexistent/python3", 1);
   const auto r = run("bench convergence " + small_scene() + " --step 1 --vertices 100 --solvers newton --budget 1 -q -j 1 --out " +
@@ -435,7 +473,7 @@ TEST_F(Cli, BenchRejectsBadInputWithOneLine) {
   expect_error(run(scal + " --vertices 100,2k --solver newton"), "--vertices: \"2k\" is not a vertex count");
   expect_error(run(scal + " --vertices 100,,200 --solver newton"), "--vertices");
   expect_error(run(scal + " --vertices 100 --solver nonsense"), "unknown solver \"nonsense\"");
-  EXPECT_NE(run("bench convergence " + scene + " --solvers newton" + out).code, 0);  // --step is required
+  expect_error(run("bench convergence " + scene + " --solvers newton" + out), "--step is required");
   EXPECT_NE(run("bench").code, 0);
   EXPECT_FALSE(fs::exists(dir / "o"));
 }

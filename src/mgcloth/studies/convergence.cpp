@@ -3,6 +3,8 @@
 #include <mgcloth/core/log.hpp>
 #include <mgcloth/core/parallel.hpp>
 #include <mgcloth/core/timer.hpp>
+#include <mgcloth/sim/checkpoint.hpp>
+#include <mgcloth/sim/recorder.hpp>
 #include <mgcloth/studies/convergence.hpp>
 
 #include <algorithm>
@@ -407,6 +409,7 @@ struct Study {
   VecX x0{};                       ///< the frozen problem's start point, the same for every solver
   std::array<int, 2> ref_index{-1, -1};  ///< per form: its E*'s place in result.references (-1: no solver of it)
   std::array<Lowest, 2> lowest{};
+  const sim::Checkpoint* checkpoint = nullptr;  ///< ConvergenceOptions::checkpoint, read
 
   bool any(bool pd) const { return std::find(projective.begin(), projective.end(), pd) != projective.end(); }
   /// The reference solver of a form and its iteration cap.
@@ -442,6 +445,18 @@ std::vector<bool> check_study(const sim::Scene& scene, const ConvergenceOptions&
 /// The state at the start of step K: simulated with the warm-up solver and the scene's stop criteria, or cached.
 SimState start_of_step(const Study& st, ConvergenceResult& result) {
   const long steps_before = st.opt.step - 1;
+  if (const sim::Checkpoint* c = st.checkpoint) {
+    result.start_state = "checkpoint";
+    SimState from;
+    from.frame = static_cast<int>(c->frame);
+    from.step = static_cast<long>(c->step);
+    for (const auto& b : c->bodies) {
+      from.x.push_back(b.x);
+      from.v.push_back(b.v);
+    }
+    logger().info("state at the start of step {} read from {}", st.opt.step, st.opt.checkpoint);
+    return from;
+  }
   std::optional<SimState> state;
   if (!st.opt.state_cache.empty()) state = load_state_cache(st.opt.state_cache, st.key);
   if (state) {
@@ -641,10 +656,32 @@ void polish_references(const Study& st, ConvergenceResult& result) {
   }
 }
 
+/// A run's checkpoint, checked against the scene and, when set, the step it must end.
+sim::Checkpoint read_run_checkpoint(const sim::Scene& scene, const fs::path& file, int step) {
+  if (!fs::exists(file)) throw_input_error("{}: no such checkpoint", file.string());
+  sim::Checkpoint c = sim::decode_checkpoint(read_file(file), file);
+  if (c.fingerprint != sim::scene_fingerprint(scene))
+    throw_input_error("{}: written by a run of a different scene than {} (physics, cloths, obstacles or solver "
+                      "differ)", file.string(), scene.file);
+  const size_t bodies = scene.cloths.size() + scene.shells.size();
+  if (c.bodies.size() != bodies)
+    throw_input_error("{}: has {} bodies, {} has {}", file.string(), c.bodies.size(), scene.file, bodies);
+  if (step != 0 && c.step + 1 != step)
+    throw_input_error("--step {}: the checkpoint {} holds the start of step {}", step, file.string(), c.step + 1);
+  return c;
+}
+
 }  // namespace
 
-ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& opt) {
+ConvergenceResult run_convergence(const sim::Scene& scene, const ConvergenceOptions& options) {
+  ConvergenceOptions opt = options;
+  std::optional<sim::Checkpoint> checkpoint;
+  if (!opt.checkpoint.empty()) {
+    checkpoint = read_run_checkpoint(scene, opt.checkpoint, opt.step);
+    opt.step = static_cast<int>(checkpoint->step + 1);
+  }
   Study st{.scene = scene, .opt = opt, .projective = check_study(scene, opt), .elastic = elastic_reference()};
+  st.checkpoint = checkpoint ? &*checkpoint : nullptr;
   st.body = study_body(scene, opt.body);
   st.warmup = opt.warmup.label.empty() ? st.elastic : opt.warmup;
   if (opt.threads > 0) set_num_threads(opt.threads);
@@ -741,6 +778,7 @@ Json to_json(const ConvergenceResult& result, const ConvergenceOptions& opt) {
                {"max_iters", opt.max_iters},
                {"threads", opt.threads > 0 ? opt.threads : num_threads()},
                {"state_cache", opt.state_cache},
+               {"checkpoint", opt.checkpoint},
                {"reference_rel_grad", opt.reference_rel_grad},
                {"reference_max_iters", opt.reference_max_iters},
                {"pd_reference_max_iters", opt.pd_reference_max_iters},

@@ -67,6 +67,10 @@ struct ConvergenceOptions {
   int max_iters = 10000;         ///< iterations per solver (the timed run)
   int threads = 0;               ///< 0: the scene's
   std::string state_cache;       ///< file caching the state at the start of step K ("": none)
+  /// A run's checkpoint.bin ("": none): the state at the start of step K is the checkpoint's, whose scene
+  /// fingerprint must be this scene's; K is its step + 1 (step 0 here: taken from the checkpoint). Nothing is
+  /// simulated, so a step late in a long run costs one solve.
+  std::string checkpoint;
   /// The solver that simulates steps 1 … K − 1 (empty label: the elastic reference, newton-direct). At 120K vertices
   /// with cloth contact, newton-direct took 13 minutes for step 4 alone; the start point only has to be a state of
   /// the scene, and the state cache's key names the solver.
@@ -144,7 +148,7 @@ struct ConvergenceResult {
                                ///< `contact` are measured)
   ContactCheck start;  ///< contact at x0
   int step = 1;
-  std::string start_state;  ///< "simulated" or "cache"
+  std::string start_state;  ///< "simulated", "cache" or "checkpoint"
   std::string warmup_solver;  ///< the solver that simulated steps 1 … K − 1
   std::vector<ReferenceEnergy> references;
   std::vector<ConvergenceRow> rows;
