@@ -224,19 +224,24 @@ bool ClothContact::never_paired(const Pair& p) const {
   return false;
 }
 
-bool ClothContact::same_surface_neighbours(const Pair& p) const {
+double ClothContact::material_layer(const Pair& p) const {
   const Index s = m_surface_of_point[p.v[0]];
   if (s != m_surface_of_point[p.v[1]] || s != m_surface_of_point[p.v[2]] || s != m_surface_of_point[p.v[3]])
-    return false;
+    return p.r;
+  const ContactSurface& c = m_surfaces[static_cast<size_t>(s)];
+  if (c.kinematic) return p.r;
   // Pieces of one cloth (a pattern's panels) are charts of their own that may overlap in material space.
   const Index piece = m_chart[static_cast<size_t>(p.v[0])];
   for (int k = 1; k < 4; ++k)
-    if (m_chart[static_cast<size_t>(p.v[k])] != piece) return false;
-  const ContactSurface& c = m_surfaces[static_cast<size_t>(s)];
+    if (m_chart[static_cast<size_t>(p.v[k])] != piece) return p.r;
+  // Primitives this near on the cloth sit inside a full layer at rest: where the mesh spacing is below the layer, it
+  // would stiffen the cloth against in-plane compression, and without any energy nothing but the CCD keeps them
+  // apart, so that a seam pulling a fine mesh squeezed them to rounding distances and stalled the solve. Their layer
+  // is half their distance at rest: no force at rest, a barrier before they meet.
   const auto u = [&](int k) { return lift(c.material, p.v[k] - c.offset); };
   const double d2 = p.edge_edge ? collision::edge_edge_distance_sq(u(0), u(1), u(2), u(3))
                                 : collision::point_triangle_distance_sq(u(0), u(1), u(2), u(3));
-  return d2 < p.r * p.r;
+  return std::min(p.r, kNeighbourLayer * std::sqrt(d2));
 }
 
 double ClothContact::pair_energy(const Pair& p, const VecX& x, Vec12* g, Mat12* H, bool project_psd) const {
@@ -252,12 +257,12 @@ double ClothContact::pair_energy(const Pair& p, const VecX& x, Vec12* g, Mat12* 
     s = collision::point_triangle_distance_sq(a, b, c, e, type, (g || H) ? &gs : nullptr, H ? &Hs : nullptr);
   }
   const double d = std::sqrt(std::max(s, 0.0));
-  if (d >= p.r) {
+  if (d >= p.layer) {
     if (g) g->setZero();
     if (H) H->setZero();
     return 0.0;
   }
-  const ContactLayer layer(p.r, m_params.barrier_fraction, p.weight);
+  const ContactLayer layer(p.layer, m_params.barrier_fraction, p.weight);
   double d1 = 0.0, d2 = 0.0;
   const double psi = layer.value(d, &d1, &d2);
   if (!std::isfinite(psi)) {
@@ -329,7 +334,6 @@ void ClothContact::update_near(const VecX& x, const std::vector<Index>& moved, c
     return mark[p.v[0]] || mark[p.v[1]] || mark[p.v[2]] || mark[p.v[3]];
   };
   std::erase_if(m_near, touches);
-  std::erase_if(m_near_neighbours, touches);
   m_broad->find_touching(m_near_base, &m_near_step, 0.5 * m_max_r + m_delta, mark, m_candidates);
   add_near_pairs(m_near_base, m_near_step);
   ++m_near_generation;
@@ -355,7 +359,6 @@ void ClothContact::rebuild_near(const VecX& x, const VecX* step) const {
   else
     m_broad->find(x, grow, m_candidates);
   m_near.clear();
-  m_near_neighbours.clear();
   add_near_pairs(x, rel);
   m_near_base = x;
   m_near_step = std::move(rel);
@@ -408,12 +411,15 @@ void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
     }
     const double reach = p.r + 2.0 * m_delta + ma + mb;
     if (lower_bound_distance(p, x) >= reach || distance(p, x) >= reach) return;
-    keep[static_cast<size_t>(k)] = same_surface_neighbours(p) ? 2 : 1;
+    keep[static_cast<size_t>(k)] = 1;
   });
-  for (size_t k = 0; k < keep.size(); ++k) {
-    if (keep[k] == 1) m_near.push_back(candidate_pair(m_candidates, static_cast<Index>(k)));
-    if (keep[k] == 2) m_near_neighbours.push_back(candidate_pair(m_candidates, static_cast<Index>(k)));
-  }
+  const size_t first = m_near.size();
+  for (size_t k = 0; k < keep.size(); ++k)
+    if (keep[k]) m_near.push_back(candidate_pair(m_candidates, static_cast<Index>(k)));
+  parallel_for(static_cast<Index>(m_near.size() - first), [&](Index k) {
+    Pair& p = m_near[first + static_cast<size_t>(k)];
+    p.layer = material_layer(p);
+  });
   m_candidates = {};  // not needed until the next search, and the largest thing contact holds
 }
 
@@ -442,9 +448,9 @@ const std::vector<double>& ClothContact::near_distances(const VecX& x) const {
   m_eval_d.resize(m_near.size());
   parallel_for(static_cast<Index>(m_near.size()), [&](Index k) {
     const Pair& p = m_near[static_cast<size_t>(k)];
-    // Pairs whose boxes are a layer apart need no exact distance: none of the callers looks beyond r + δ.
+    // Pairs whose boxes are a layer apart need no exact distance: none of the callers looks beyond layer + δ.
     const double lb = lower_bound_distance(p, x);
-    m_eval_d[static_cast<size_t>(k)] = lb >= p.r + m_delta ? lb : distance(p, x);
+    m_eval_d[static_cast<size_t>(k)] = lb >= p.layer + m_delta ? lb : distance(p, x);
   });
   m_eval_x = x;
   m_eval_generation = m_near_generation;
@@ -456,7 +462,7 @@ std::vector<Index> ClothContact::active(const VecX& x) const {
   const std::vector<double>& d = near_distances(x);
   std::vector<Index> out;
   for (size_t k = 0; k < m_near.size(); ++k)
-    if (d[k] < m_near[k].r) out.push_back(static_cast<Index>(k));
+    if (d[k] < m_near[k].layer) out.push_back(static_cast<Index>(k));
   return out;
 }
 
@@ -540,7 +546,7 @@ std::vector<std::array<Index, 4>> ClothContact::stencils_at(const VecX& x) const
   // Pairs a little outside the layer are kept in the pattern too, so that a pair that enters next does not change it.
   std::vector<std::array<Index, 4>> out;
   for (size_t k = 0; k < m_near.size(); ++k)
-    if (d[k] < m_near[k].r + m_delta) out.push_back(m_near[k].v);
+    if (d[k] < m_near[k].layer + m_delta) out.push_back(m_near[k].v);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -652,22 +658,21 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
       m_times.broad_phase_ms += timer.ms();
     }
   }
-  // Material-space neighbours carry no energy but must not pass through each other either.
   const Timer timer;
-  const size_t nn = m_near.size(), nb = m_near_neighbours.size();
-  std::vector<double> t(nn + nb + extra.size(), 1.0);
+  const size_t nn = m_near.size();
+  std::vector<double> t(nn + extra.size(), 1.0);
   // The additive CCD's first step goes to (1 − s)·d0/l_p, l_p the pair's motion relative to its own mean (the bound
   // it computes), and where that passes the step's end it returns 1 at once: a pair whose l_p is below (1 − s) times
   // a lower bound of d0 keeps its t = 1 without the CCD. In a cloth at rest or falling freely that is nearly every
   // cached pair, and where the mesh spacing is below the layer's reach r + 2δ a flat sheet caches many pairs of its
   // own primitives (bench/RESULTS.md, "Wang 2018's Table 1"). The bound is the cached distance at x where there is
-  // one (exact below r + δ, a lower bound beyond), else the gap between the pair's boxes, else the exact distance;
-  // 0.99 keeps the test on the safe side of rounding, so the result is the CCD's to the bit.
+  // one (exact below its layer + δ, a lower bound beyond), else the gap between the pair's boxes, else the exact
+  // distance; 0.99 keeps the test on the safe side of rounding, so the result is the CCD's to the bit.
   const bool cached = m_eval_generation == m_near_generation && m_eval_x.size() == x.size() && m_eval_x == x;
   const double free_fraction = 0.99 * (1.0 - s);
   parallel_for(static_cast<Index>(t.size()), [&](Index k) {
     const size_t j = static_cast<size_t>(k);
-    const Pair& p = j < nn ? m_near[j] : j < nn + nb ? m_near_neighbours[j - nn] : extra[j - nn - nb];
+    const Pair& p = j < nn ? m_near[j] : extra[j - nn];
     const auto a = [&](int i) { return at(x, p.v[i]); };
     const auto da = [&](int i) { return at(step, p.v[i]); };
     {
@@ -693,7 +698,7 @@ ContactStats ClothContact::stats(const VecX& x_unknown) const {
   for (const Pair& p : m_near) {
     const double d = distance(p, x);
     out.min_distance = std::min(out.min_distance, d);
-    if (d < p.r) ++out.pairs;
+    if (d < p.layer) ++out.pairs;
   }
   return out;
 }
@@ -788,7 +793,7 @@ std::vector<ClothContact::ContactFrame> ClothContact::contact_frames(const VecX&
     f.normal = rel.normalized();
     f.tangent = tangent_basis(f.normal);
     double d1 = 0.0;
-    ContactLayer(p.r, m_params.barrier_fraction, p.weight).value(d, &d1);
+    ContactLayer(p.layer, m_params.barrier_fraction, p.weight).value(d, &d1);
     f.normal_force = -d1;
     f.surface_a = m_surface_of_point[p.v[0]];
     f.surface_b = m_surface_of_point[p.v[p.edge_edge ? 2 : 1]];

@@ -42,7 +42,7 @@ struct ClothContactParams {
 };
 
 /// One cloth (or a part of the unknown) that takes part in contact: its triangles in the unknown's numbering, its
-/// material coordinates (pairs of one cloth closer than the layer in material space are neighbours, not contact)
+/// material coordinates (pairs of one piece nearer than twice the layer in material space get a thinner layer)
 /// and its contact thickness. A kinematic surface (an obstacle mesh) is not part of the unknown: its points are the
 /// contact term's kinematic points, placed by ClothContact::set_kinematic_positions, and it touches the cloths but
 /// never itself.
@@ -52,7 +52,7 @@ struct ContactSurface {
   std::vector<Tri> tris;    ///< in the cloth's own numbering
   Mat2X material;           ///< per point of the cloth (unused for a kinematic surface)
   /// Points sewn together (Topology::stitch_groups, the cloth's numbering): the seam's sides lie in different charts
-  /// of `material`, so primitives that share a stitch group are neighbours, not contact pairs.
+  /// of `material`; primitives sharing a point of a closed seam are never paired (ClothContact::close_seams).
   std::vector<std::vector<Index>> stitch_groups;
   VecX area;                ///< lumped area per point of the cloth (m²; of a kinematic surface: of its surface)
   double thickness = 1e-3;  ///< m
@@ -90,8 +90,8 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// Contact between the triangles of every surface and within each (self-contact): vertex–triangle and edge–edge
 /// pairs whose distance is below the layer r = (t_a + t_b)/2 carry the energy w·ψ(d) (ContactLayer) with
 /// w = stiffness × the pair's area (the vertex's lumped area; for an edge a third of its triangles' areas, the two
-/// edges averaged). Pairs that share a point, and pairs of one surface closer than r in material space, are
-/// neighbours and never touch.
+/// edges averaged). Pairs that share a point are never formed; pairs of one piece of a cloth nearer than 2r in
+/// material space act within half that distance instead of r (Pair::layer).
 ///
 /// Intersection-freeness is the solvers' part: every trial point is limited by max_step() (continuous collision
 /// detection along the step), so that a point reached from an intersection-free one never has a pair at d = 0,
@@ -184,7 +184,10 @@ class ClothContact final : public Term {
     std::array<Index, 4> v;  ///< points (kinematic ones after the unknown's): (p, t0, t1, t2) or (a0, a1, b0, b1)
     bool edge_edge = false;
     double weight = 0.0;     ///< w
-    double r = 0.0;          ///< the layer's thickness for this pair
+    double r = 0.0;          ///< the cloths' layer for this pair: how far the cache reaches for it
+    /// The layer its energy acts within: r, or for two primitives of one piece nearer than 2r in material space,
+    /// half that material distance (material_layer).
+    double layer = 0.0;
   };
   /// x (the unknown's points) followed by the kinematic points; x itself when there are none. Every private member
   /// takes and keeps points in this numbering.
@@ -206,7 +209,8 @@ class ClothContact final : public Term {
                      Eigen::Matrix<double, 12, 12>* H, bool project_psd) const;
   /// A lower bound of distance(p, x) from the two sides' bounding boxes, an order of magnitude cheaper.
   double lower_bound_distance(const Pair& p, const VecX& x) const;
-  /// Per near pair, its distance at x where that is below r + δ, a lower bound of it otherwise; computed once per x.
+  /// Per near pair, its distance at x where that is below its layer + δ, a lower bound of it otherwise; computed
+  /// once per x.
   const std::vector<double>& near_distances(const VecX& x) const;
   /// Makes the cache of near pairs valid at x.
   void ensure_near(const VecX& x) const;
@@ -226,9 +230,12 @@ class ClothContact final : public Term {
   Pair candidate_pair(const collision::Candidates& c, Index k) const;
   /// Beyond this fraction of the points, a local update of the cache costs about as much as a rebuild.
   static constexpr double kLocalUpdateFraction = 0.25;
+  /// A pair of one piece nearer than 2r in material space gets this fraction of that distance as its layer.
+  static constexpr double kNeighbourLayer = 0.5;
   /// The near pairs (indices into m_near) inside their layer at x.
   std::vector<Index> active(const VecX& x) const;
-  bool same_surface_neighbours(const Pair& p) const;
+  /// Pair p's energy layer (Pair::layer).
+  double material_layer(const Pair& p) const;
   std::vector<std::array<Index, 4>> stencils_at(const VecX& x) const;
 
   std::vector<ContactSurface> m_surfaces;
@@ -251,7 +258,6 @@ class ClothContact final : public Term {
   mutable std::unique_ptr<collision::BroadPhase> m_broad;
   mutable collision::Candidates m_candidates;
   mutable std::vector<Pair> m_near;
-  mutable std::vector<Pair> m_near_neighbours;  ///< near pairs that are material-space neighbours (CCD only)
   mutable VecX m_near_base;  ///< x_b of the cache (empty: none)
   mutable VecX m_near_step;  ///< the step the cache holds for, less its mean displacement (zero: none)
   mutable std::uint64_t m_near_generation = 0;  ///< counts the cache's rebuilds
