@@ -92,8 +92,7 @@ VecX Assembly::prepare_step(const StepTime& step) {
   }
   if (m_contact) {
     // The prediction x + h v may pass through cloth; the solve starts where the motion towards it stops.
-    m_contact->reset_near();
-    m_contact->close_seams(from);
+    m_contact->close_seams(from);  // also drops the near-pair cache: every step starts from a fresh one
     if (m_meshes.empty()) {
       const VecX d = out - from;
       out = from + objective().max_step(from, d, 1.0) * d;

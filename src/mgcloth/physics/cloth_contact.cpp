@@ -385,6 +385,7 @@ ClothContact::Pair ClothContact::candidate_pair(const collision::Candidates& c, 
     p.weight = m_params.stiffness * 0.5 * (m_edge_area[ea] + m_edge_area[eb]);
     p.r = 0.5 * (m_point_r[A[0]] + m_point_r[B[0]]);
   }
+  p.layer = p.r;  // add_near_pairs narrows it for pairs of one piece (material_layer)
   return p;
 }
 
