@@ -1,8 +1,8 @@
 // The showcase scenes: the funnel of Wang et al. 2018, Fig. 1 (scenes/funnel.json, 120K vertices, Δt = 1/90 s,
 // self-contact) and its small version (scenes/funnel_small.json); the dress and the gown of its Fig. 12 on the
-// walking body (scenes/dress.json, scenes/gown.json, sewn from scenes/patterns/) and their small versions. The small one is run at a coarser resolution
-// until the cloth is in the spout, every step checked for intersections and for vertices that cross the funnel's
-// wall; the full one is parsed and its mesh built, not simulated.
+// walking body (scenes/dress.json, scenes/gown.json, sewn from scenes/patterns/) and their small versions. The small
+// scenes are run at coarser resolutions, every step checked for intersections (and, in the funnel, for vertices
+// that cross its wall); the full ones are parsed and their meshes built, not simulated.
 #include <mgcloth/core/error.hpp>
 #include <mgcloth/core/file_io.hpp>
 #include <mgcloth/mesh/generators.hpp>
@@ -256,7 +256,7 @@ TEST(ShowcaseScenes, TheDressAndTheGownAreSewnOnTheBodyAndStayOnItWhileItWalks) 
   }
 }
 
-// The full scenes are parsed and their garments triangulated here (a run takes hours on 2 cores): the paper's
+// The full scenes are parsed and their garments triangulated here (a run takes days on 2 cores): the paper's
 // sizes, 132K vertices for the dress and 104K for the gown, at its 1/90 s step.
 TEST(ShowcaseScenes, TheFullDressAndGownHaveThePapersSizes) {
   for (const auto& [name, lo, hi] : {std::tuple{"dress", 125000, 140000}, std::tuple{"gown", 98000, 110000}}) {
