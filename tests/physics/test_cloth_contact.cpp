@@ -159,6 +159,29 @@ ContactSurface two_panels(VecX& x) {
   return s;
 }
 
+// A mesh finer than the cache's margins: a cache that reached r + 2δ for every pair held each point's neighbours on
+// the cloth (on the full-size dress 4.4M pairs, 74K in contact). Pairs of one piece reach their own layer, so a
+// sheet at rest with a spacing of 1.5 r caches none of them; folded, the halves meet and are cached.
+TEST(ClothContact, TheCacheHoldsNoNeighboursOnTheClothThatCannotEnterTheirLayer) {
+  VecX x;
+  std::vector<ContactSurface> s{sheet("a", 0.045, 961, 0.0, 0, x, 1e-3)};
+  ClothContact c(s, static_cast<Index>(x.size() / 3), ClothContactParams{});
+  const ContactStats rest = c.stats(x);
+  EXPECT_EQ(rest.cached, 0);
+  EXPECT_EQ(rest.pairs, 0);
+  VecX y = x;
+  for (Index i = 0; i < y.size() / 3; ++i)
+    if (y[3 * i] > 0.0225) {
+      y[3 * i] = 0.045 - y[3 * i];
+      y[3 * i + 2] = 1.2e-3;
+    }
+  const ContactStats folded = c.stats(y);
+  EXPECT_GT(folded.cached, 0);
+  EXPECT_EQ(folded.pairs, 0);  // 1.2 mm apart, outside the 1 mm layer
+  y.reshaped(3, y.size() / 3).row(2) *= 0.5;
+  EXPECT_GT(c.stats(y).pairs, 0);
+}
+
 TEST(ClothContact, PanelsOfOneClothWhoseChartsOverlapStillTouch) {
   VecX x;
   const ContactSurface s = two_panels(x);

@@ -328,18 +328,18 @@ void BroadPhase::find_touching(const VecX& x, const VecX* d, double inflate, con
       }
     });
   });
-  std::sort(m_unordered.begin(), m_unordered.end());
-  m_unordered.erase(std::unique(m_unordered.begin(), m_unordered.end()), m_unordered.end());
-  out.vertex_triangle.swap(m_unordered);
+  // Both sides find most pairs, so each pair is met about twice.
+  sort_pairs(static_cast<Index>(s.vertices.size()), m_unordered, out.vertex_triangle);
+  out.vertex_triangle.erase(std::unique(out.vertex_triangle.begin(), out.vertex_triangle.end()),
+                            out.vertex_triangle.end());
   gather_pairs(static_cast<Index>(edges.size()), m_chunks, m_unordered, [&](Index i, std::vector<Pair>& pairs) {
     const Index a = edges[i];
     m_edges.query(m_edge_boxes[a], [&](Index b) {
       if (!share_end(s.edges[a], s.edges[b])) pairs.push_back({std::min(a, b), std::max(a, b)});
     });
   });
-  std::sort(m_unordered.begin(), m_unordered.end());
-  m_unordered.erase(std::unique(m_unordered.begin(), m_unordered.end()), m_unordered.end());
-  out.edge_edge.swap(m_unordered);
+  sort_pairs(static_cast<Index>(s.edges.size()), m_unordered, out.edge_edge);
+  out.edge_edge.erase(std::unique(out.edge_edge.begin(), out.edge_edge.end()), out.edge_edge.end());
   std::vector<Pair>().swap(m_unordered);
 }
 

@@ -410,8 +410,14 @@ void ClothContact::add_near_pairs(const VecX& x, const VecX& rel) const {
         (i < split ? ma : mb) = std::max(i < split ? ma : mb, m);
       }
     }
-    const double reach = p.r + 2.0 * m_delta + ma + mb;
-    if (lower_bound_distance(p, x) >= reach || distance(p, x) >= reach) return;
+    const double margin = 2.0 * m_delta + ma + mb;
+    // The box gap against the widest reach first: most candidates fail it, and need no layer.
+    const double lb = lower_bound_distance(p, x);
+    if (lb >= p.r + margin) return;
+    Pair q = p;
+    q.layer = material_layer(p);
+    const double reach = cache_layer(q) + margin;
+    if (lb >= reach || distance(p, x) >= reach) return;
     keep[static_cast<size_t>(k)] = 1;
   });
   const size_t first = m_near.size();
@@ -608,15 +614,15 @@ double ClothContact::max_extended_step(const VecX& x, const VecX& step, double a
 
 double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   const double s = m_params.ccd_separation;
-  // With the cache valid at x, a pair outside it is at least its layer r apart. Distances ignore the step's mean
-  // c̄, and while no point moves more than (1 − s)·r_min/2 relative to it, no such pair closes to s times its
-  // distance: only the cached pairs need collision detection. The cache also covers the whole step when it covers
-  // both of its ends, since the points it covers form a convex set. Otherwise, when many points move that far, the
-  // cache is rebuilt along the step: its pairs are then every pair that can come within r anywhere on it (so the
-  // line search's trial points on it need no rebuild), a superset of those that can collide. When few do, only the
-  // pairs of those few are found along the step, for the collision detection alone; trial points then update the
-  // cache locally.
-  const double small = 0.5 * (1.0 - s) * m_min_r;
+  // With the cache valid at x, a pair outside it is at least ρ = kCacheFloor·r_min apart (cache_layer). Distances
+  // ignore the step's mean c̄, and while no point moves more than (1 − s)·ρ/2 relative to it, no such pair closes to
+  // s times its distance: only the cached pairs need collision detection. The cache also covers the whole step when
+  // it covers both of its ends, since the points it covers form a convex set. Otherwise, when many points move that
+  // far, the cache is rebuilt along the step: its pairs are then every pair that can come within its reach anywhere
+  // on it (so the line search's trial points on it need no rebuild), a superset of those that can collide. When few
+  // do, only the pairs of those few are found along the step, for the collision detection alone; trial points then
+  // update the cache locally.
+  const double small = 0.5 * (1.0 - s) * kCacheFloor * m_min_r;
   VecX rel = step;
   as_columns(rel).colwise() -= as_columns(step).rowwise().mean();
   std::vector<char> fast(static_cast<size_t>(m_all), 0);
@@ -665,8 +671,7 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   // The additive CCD's first step goes to (1 − s)·d0/l_p, l_p the pair's motion relative to its own mean (the bound
   // it computes), and where that passes the step's end it returns 1 at once: a pair whose l_p is below (1 − s) times
   // a lower bound of d0 keeps its t = 1 without the CCD. In a cloth at rest or falling freely that is nearly every
-  // cached pair, and where the mesh spacing is below the layer's reach r + 2δ a flat sheet caches many pairs of its
-  // own primitives (bench/RESULTS.md, "Wang 2018's Table 1"). The bound is the cached distance at x where there is
+  // cached pair. The bound is the cached distance at x where there is
   // one (exact below its layer + δ, a lower bound beyond), else the gap between the pair's boxes, else the exact
   // distance; 0.99 keeps the test on the safe side of rounding, so the result is the CCD's to the bit.
   const bool cached = m_eval_generation == m_near_generation && m_eval_x.size() == x.size() && m_eval_x == x;
@@ -696,6 +701,7 @@ ContactStats ClothContact::stats(const VecX& x_unknown) const {
   const VecX& x = extended(x_unknown);
   ensure_near(x);
   ContactStats out;
+  out.cached = static_cast<Index>(m_near.size());
   for (const Pair& p : m_near) {
     const double d = distance(p, x);
     out.min_distance = std::min(out.min_distance, d);

@@ -63,6 +63,7 @@ struct ContactSurface {
 struct ContactStats {
   Index pairs = 0;                ///< pairs inside the contact layer
   double min_distance = kInf;     ///< over the pairs within the candidates' reach (kInf: none)
+  Index cached = 0;               ///< pairs the near-pair cache holds (those that can enter their layer nearby)
 };
 
 /// Where the contact term's collision detection spent its time since the last take_times() (ms): broad phase with
@@ -102,20 +103,20 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// checked the motion). Pairs between kinematic points alone are never formed; the energy's gradient and Hessian
 /// have the unknown's rows only.
 ///
-/// The pairs near a point are cached: a rebuild at x_b finds every pair within r + 2δ (broad phase, then exact
-/// distances), which holds every pair inside the layer at any x whose points all lie within δ of x_b after one common
-/// translation (distances ignore it). When only a few points are farther (at most kLocalUpdateFraction of them), those
+/// The pairs near a point are cached: a rebuild at x_b finds every pair within ρ + 2δ (broad phase, then exact
+/// distances; ρ = max(layer, r/2), cache_layer), which holds every pair inside its layer at any x whose points all
+/// lie within δ of x_b after one common translation (distances ignore it). When only a few points are farther (at most kLocalUpdateFraction of them), those
 /// alone get new bases and their pairs are searched again (BroadPhase::find_touching): the other pairs keep their
 /// guarantee, and a cloth at rest whose edge flutters does not pay for a whole search. Otherwise the cache is
 /// rebuilt. When many points move far, max_step() builds the cache along its step x_b + [0, 1]·s instead, in a frame
-/// moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below r + 2δ plus how far
+/// moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below ρ + 2δ plus how far
 /// its own points move relative to each other), so that the trial points of the line search that follows find it
 /// valid, and a stack of cloths falling together does not sweep everything it passes; when few do, it searches only
 /// their pairs along the step, for collision detection. A step that moves points farther than about a mesh spacing
 /// relative to its mean is checked in pieces of that length, up to the first with a collision, and the cache then
 /// holds the last piece checked. A step whose two ends the cache covers needs neither: the
 /// points it covers form a convex set. Every step starts from a fresh cache (reset_near). The Hessian's stencils
-/// are the pairs within r + δ at the last change, kept until a pair inside the layer is missing from them, so the
+/// are the pairs within layer + δ at the last change, kept until a pair inside the layer is missing from them, so the
 /// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
 class ClothContact final : public Term {
  public:
@@ -184,11 +185,14 @@ class ClothContact final : public Term {
     std::array<Index, 4> v;  ///< points (kinematic ones after the unknown's): (p, t0, t1, t2) or (a0, a1, b0, b1)
     bool edge_edge = false;
     double weight = 0.0;     ///< w
-    double r = 0.0;          ///< the cloths' layer for this pair: how far the cache reaches for it
+    double r = 0.0;          ///< the cloths' layer for this pair
     /// The layer its energy acts within: r, or for two primitives of one piece nearer than 2r in material space,
     /// half that material distance (material_layer).
     double layer = 0.0;
   };
+  /// How far the cache reaches for pair p, less its margin: its layer, but never below kCacheFloor·r, so that a pair
+  /// outside a valid cache is at least kCacheFloor·r_min apart (what collision_time relies on).
+  static double cache_layer(const Pair& p) { return std::max(p.layer, kCacheFloor * p.r); }
   /// x (the unknown's points) followed by the kinematic points; x itself when there are none. Every private member
   /// takes and keeps points in this numbering.
   const VecX& extended(const VecX& x) const;
@@ -232,6 +236,10 @@ class ClothContact final : public Term {
   static constexpr double kLocalUpdateFraction = 0.25;
   /// A pair of one piece nearer than 2r in material space gets this fraction of that distance as its layer.
   static constexpr double kNeighbourLayer = 0.5;
+  /// Where the mesh spacing is below r, a cache that reached r + 2δ for every pair held each point's neighbours on
+  /// the cloth: 4.4M pairs on the full-size dress, of which 74K were in contact (bench/RESULTS.md). Pairs of one piece
+  /// reach their own, narrower layer instead, down to this fraction of r.
+  static constexpr double kCacheFloor = 0.5;
   /// The near pairs (indices into m_near) inside their layer at x.
   std::vector<Index> active(const VecX& x) const;
   /// Pair p's energy layer (Pair::layer).
