@@ -278,4 +278,13 @@ TEST(ShowcaseScenes, TheFullDressAndGownHaveThePapersSizes) {
     EXPECT_EQ(small.cloths[0].mesh.pattern, spec.pattern);
     EXPECT_GT(small.cloths[0].mesh.pattern_resolution, 5 * spec.pattern_resolution);
   }
+  // The dress's medium version (for its picture in the README) likewise, at a resolution between the two.
+  const sim::Scene full = sim::load_scene(scenes_dir() / "dress.json");
+  const sim::Scene medium = sim::load_scene(scenes_dir() / "dress_medium.json");
+  EXPECT_EQ(medium.step_size(), full.step_size());
+  EXPECT_EQ(medium.frames, full.frames);
+  EXPECT_EQ(medium.cloths[0].mesh.pattern, full.cloths[0].mesh.pattern);
+  EXPECT_EQ(medium.cloth_contact.enabled, full.cloth_contact.enabled);
+  EXPECT_EQ(medium.solver.name, full.solver.name);
+  EXPECT_GT(medium.cloths[0].mesh.pattern_resolution, 2 * full.cloths[0].mesh.pattern_resolution);
 }
