@@ -671,9 +671,9 @@ double ClothContact::collision_time(const VecX& x, const VecX& step) const {
   // The additive CCD's first step goes to (1 − s)·d0/l_p, l_p the pair's motion relative to its own mean (the bound
   // it computes), and where that passes the step's end it returns 1 at once: a pair whose l_p is below (1 − s) times
   // a lower bound of d0 keeps its t = 1 without the CCD. In a cloth at rest or falling freely that is nearly every
-  // cached pair. The bound is the cached distance at x where there is
-  // one (exact below its layer + δ, a lower bound beyond), else the gap between the pair's boxes, else the exact
-  // distance; 0.99 keeps the test on the safe side of rounding, so the result is the CCD's to the bit.
+  // cached pair. The bound is the cached distance at x where there is one (exact below its layer + δ, a lower bound
+  // beyond), else the gap between the pair's boxes, else the exact distance; 0.99 keeps the test on the safe side of
+  // rounding, so the result is the CCD's to the bit.
   const bool cached = m_eval_generation == m_near_generation && m_eval_x.size() == x.size() && m_eval_x == x;
   const double free_fraction = 0.99 * (1.0 - s);
   parallel_for(static_cast<Index>(t.size()), [&](Index k) {

@@ -105,10 +105,11 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 ///
 /// The pairs near a point are cached: a rebuild at x_b finds every pair within ρ + 2δ (broad phase, then exact
 /// distances; ρ = max(layer, r/2), cache_layer), which holds every pair inside its layer at any x whose points all
-/// lie within δ of x_b after one common translation (distances ignore it). When only a few points are farther (at most kLocalUpdateFraction of them), those
-/// alone get new bases and their pairs are searched again (BroadPhase::find_touching): the other pairs keep their
-/// guarantee, and a cloth at rest whose edge flutters does not pay for a whole search. Otherwise the cache is
-/// rebuilt. When many points move far, max_step() builds the cache along its step x_b + [0, 1]·s instead, in a frame
+/// lie within δ of x_b after one common translation (distances ignore it). When only a few points are farther (at
+/// most kLocalUpdateFraction of them), those alone get new bases and their pairs are searched again
+/// (BroadPhase::find_touching): the other pairs keep their guarantee, and a cloth at rest whose edge flutters does
+/// not pay for a whole search. Otherwise the cache is rebuilt. When many points move far, max_step() builds the
+/// cache along its step x_b + [0, 1]·s instead, in a frame
 /// moving with the step's mean (swept boxes of s − mean; each pair kept if its distance is below ρ + 2δ plus how far
 /// its own points move relative to each other), so that the trial points of the line search that follows find it
 /// valid, and a stack of cloths falling together does not sweep everything it passes; when few do, it searches only
@@ -116,8 +117,8 @@ std::vector<std::array<Index, 16>> stencil_slots(const std::vector<std::array<In
 /// relative to its mean is checked in pieces of that length, up to the first with a collision, and the cache then
 /// holds the last piece checked. A step whose two ends the cache covers needs neither: the
 /// points it covers form a convex set. Every step starts from a fresh cache (reset_near). The Hessian's stencils
-/// are the pairs within layer + δ at the last change, kept until a pair inside the layer is missing from them, so the
-/// pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
+/// are the pairs within layer + δ at the last change, kept until a pair inside the layer is missing from them, so
+/// the pattern (and the multigrid's Galerkin maps and colorings) changes only when the contact set does.
 class ClothContact final : public Term {
  public:
   /// `kinematic_positions`: the kinematic surfaces' points where they start (3 per point), which also give their
