@@ -265,6 +265,8 @@ TEST(ShowcaseScenes, TheFullDressAndGownHaveThePapersSizes) {
     EXPECT_NEAR(scene.step_size(), 1.0 / 90.0, 1e-15);
     EXPECT_TRUE(scene.cloth_contact.enabled);
     EXPECT_EQ(scene.solver.name, "fmg");
+    // Wang 2018 stops a step's FMG when the residual is below 1% of the step's first (Sec. 5), as Table 1 does.
+    EXPECT_EQ(scene.solver.stop.rel_grad, 1e-2);
     ASSERT_EQ(scene.obstacles.size(), 1u);
     EXPECT_EQ(scene.obstacles[0].shape, "body");
     ASSERT_EQ(scene.cloths.size(), 1u);
@@ -276,6 +278,7 @@ TEST(ShowcaseScenes, TheFullDressAndGownHaveThePapersSizes) {
     const sim::Scene small = sim::load_scene(scenes_dir() / (std::string(name) + "_small.json"));
     EXPECT_EQ(small.step_size(), scene.step_size());
     EXPECT_EQ(small.cloths[0].mesh.pattern, spec.pattern);
+    EXPECT_EQ(small.solver.stop.rel_grad, scene.solver.stop.rel_grad);
     EXPECT_GT(small.cloths[0].mesh.pattern_resolution, 5 * spec.pattern_resolution);
   }
   // The dress's medium version (for its picture in the README) likewise, at a resolution between the two.
@@ -286,5 +289,6 @@ TEST(ShowcaseScenes, TheFullDressAndGownHaveThePapersSizes) {
   EXPECT_EQ(medium.cloths[0].mesh.pattern, full.cloths[0].mesh.pattern);
   EXPECT_EQ(medium.cloth_contact.enabled, full.cloth_contact.enabled);
   EXPECT_EQ(medium.solver.name, full.solver.name);
+  EXPECT_EQ(medium.solver.stop.rel_grad, full.solver.stop.rel_grad);
   EXPECT_GT(medium.cloths[0].mesh.pattern_resolution, 2 * full.cloths[0].mesh.pattern_resolution);
 }
