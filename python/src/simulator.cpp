@@ -255,6 +255,9 @@ void bind_simulator(py::module_& m) {
       .def_readonly("load_factor", &sim::StepStats::load_factor, "Shells: the load factor of the step.")
       .def_readonly("obstacle_rounds", &sim::StepStats::obstacle_rounds,
                     "Mesh obstacles: solves after the first because a mesh was still short of its pose.")
+      .def_readonly("seam_gap", &sim::StepStats::seam_gap,
+                    "Sewn cloths: the largest distance between two points sewn together at the end of the step (m; "
+                    "NaN: no seams).")
       .def_readonly("contact_pairs", &sim::StepStats::contact_pairs,
                     "Cloth contact: pairs inside the contact layer at the end of the step (-1: no cloth contact).")
       .def_readonly("min_distance", &sim::StepStats::min_distance,

@@ -168,7 +168,7 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 
 std::string Recorder::stats_header() {
   return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
-         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds";
+         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
@@ -178,10 +178,11 @@ std::string Recorder::stats_row(const StepStats& s) {
   const std::string dmin = std::isnan(s.min_distance) ? "" : fmt::format("{:.6g}", s.min_distance);
   const std::string crossings = s.intersections >= 0 ? std::to_string(s.intersections) : "";
   const auto ms = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3f}", v); };
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{}", s.frame, s.step,
+  const std::string gap = std::isnan(s.seam_gap) ? "" : fmt::format("{:.6g}", s.seam_gap);
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
-                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds);
+                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap);
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

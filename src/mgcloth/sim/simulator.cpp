@@ -167,6 +167,18 @@ std::string group_size(const bodies::Assembly& g) {
   for (const Body* b : g.bodies()) sizes.push_back(b->size_text());
   return fmt::format("{}", fmt::join(sizes, " + "));
 }
+/// StepStats::seam_gap of one cloth: a stitch group is every point sewn together (a corner where two seams meet
+/// has more than two), so the group's widest pair, not only its stitched pairs, is measured.
+double widest_seam_gap(const ClothBody& c) {
+  const auto& groups = c.topology().stitch_groups;
+  if (groups.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto x = as_columns(c.x());
+  double gap = 0.0;
+  for (const auto& g : groups)
+    for (size_t a = 0; a < g.size(); ++a)
+      for (size_t b = a + 1; b < g.size(); ++b) gap = std::max(gap, (x.col(g[a]) - x.col(g[b])).norm());
+  return gap;
+}
 }  // namespace
 
 size_t Simulator::body_index(const std::string& name) const {
@@ -310,6 +322,10 @@ std::vector<StepStats> Simulator::step() {
     }
     std::vector<std::string> names;
     for (const Body* b : group.bodies()) {
+      if (const auto* c = dynamic_cast<const ClothBody*>(b)) {
+        const double gap = widest_seam_gap(*c);
+        if (!std::isnan(gap)) s.seam_gap = std::isnan(s.seam_gap) ? gap : std::max(s.seam_gap, gap);
+      }
       names.push_back(b->name());
       for (auto& p : b->probes()) s.probes.push_back(p);
     }

@@ -38,6 +38,9 @@ struct StepStats {
   /// Mesh obstacles: the solves after the first that the step took because an obstacle was still short of its
   /// pose (Simulator::step); their iterations and time are in `report`.
   int obstacle_rounds = 0;
+  /// Sewn cloths (stitch groups: a pattern's seams, an OBJ's UV seams): the largest distance between two points sewn
+  /// together at the step's end, m (NaN: no cloth of the step has seams). Below the contact layer, a seam is shut.
+  double seam_gap = std::numeric_limits<double>::quiet_NaN();
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
