@@ -4,8 +4,8 @@ Per scene: cloth vertices and triangles and smoother colors per level (from `mgc
 run's stats.csv: FMG cycles per step (min to max, mean), ms per cycle (the solve's time over its cycles, contact
 energy and its detection inside the cycle included), ms per frame (every step's wall time, the intersection
 checker excluded), and the contact share: collision detection's part of the step (broad phase, distances, CCD).
-Sewn garments also get the widest seam gap after their first 5 frames (stats.csv's seam_gap, from 0f59dd5's
-successors on; rows of older binaries leave it empty).
+Sewn garments also get the widest seam gap after their first 5 frames (stats.csv's seam_gap, written since 9374e7c;
+rows that older binaries wrote leave it empty).
 """
 import csv, json, pathlib, sys
 
