@@ -258,6 +258,9 @@ void bind_simulator(py::module_& m) {
       .def_readonly("seam_gap", &sim::StepStats::seam_gap,
                     "Sewn cloths: the largest distance between two points sewn together at the end of the step (m; "
                     "NaN: no seams).")
+      .def_readonly("velocity_error", &sim::StepStats::velocity_error,
+                    "The solver's estimate of the largest per-vertex velocity error at the end of the step (m/s; inf: "
+                    "no estimate possible, NaN: none made).")
       .def_readonly("contact_pairs", &sim::StepStats::contact_pairs,
                     "Cloth contact: pairs inside the contact layer at the end of the step (-1: no cloth contact).")
       .def_readonly("min_distance", &sim::StepStats::min_distance,

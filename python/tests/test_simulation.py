@@ -162,3 +162,14 @@ def test_a_mesh_obstacle_from_an_obj_file_holds_the_cloth(tmp_path):
     assert sim.scene["obstacles"][0]["mesh"] == str(tmp_path / "plate.obj")
     with pytest.raises(mgcloth.InputError, match="cloth_contact"):
         mgcloth.Simulation(cloths=[mgcloth.Cloth(V, F)], obstacles=[mgcloth.MeshObstacle(tmp_path / "plate.obj")])
+
+
+def test_a_velocity_tolerance_stops_each_step_by_its_estimate(small_grid):
+    # Each step ends once the solver's estimate of the largest per-vertex velocity error is within the tolerance,
+    # which StepStats reports; a single-level smoother, whose steps cannot show its error, is refused it.
+    V, F = small_grid
+    sim = hanging(V, F, solver="fmg", rel_grad=0.0, velocity_tol=1e-3)
+    for s in sim.step(3):
+        assert s.status == "converged" and s.velocity_error <= 1e-3
+    with pytest.raises(mgcloth.InputError, match="velocity_tol"):
+        hanging(V, F, solver="gs-chebyshev", velocity_tol=1e-3).step()

@@ -103,6 +103,19 @@ TEST(Scene, BadValuesNameTheField) {
   j["cloths"][0]["name"] = "a";
   j["cloths"][1]["name"] = "a";
   EXPECT_NE(error_of(j).find("duplicate cloth name"), std::string::npos);
+  j = minimal();
+  j["solver"] = {{"velocity_tol", -0.01}};
+  EXPECT_NE(error_of(j).find("solver.velocity_tol: must be"), std::string::npos) << error_of(j);
+}
+
+// A velocity tolerance is off unless set, resolves with the scene, and becomes each step's Stop::step_tol.
+TEST(Scene, TheVelocityToleranceIsOffUnlessSetAndRoundTrips) {
+  EXPECT_EQ(sim::parse_scene(minimal(), "scene.json", ".").solver.velocity_tol, 0.0);
+  Json j = minimal();
+  j["solver"] = {{"velocity_tol", 0.005}};
+  const auto s = sim::parse_scene(j, "scene.json", ".");
+  EXPECT_EQ(s.solver.velocity_tol, 0.005);
+  EXPECT_EQ(sim::to_json(s)["solver"]["velocity_tol"], 0.005);
 }
 
 // A misspelled key used to lose to the missing field it was meant to be ("cloths: a scene needs at least one

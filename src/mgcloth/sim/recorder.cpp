@@ -58,6 +58,8 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   j.erase("frames");
   j.erase("output");
   j.erase("threads");
+  // Off, the velocity tolerance stops solves as every run before the key existed did: their checkpoints resume.
+  if (j["solver"]["velocity_tol"] == 0.0) j["solver"].erase("velocity_tol");
   // The scene names an obstacle mesh by its file: what the file holds is part of the scene too, so that a run does
   // not resume with an edited mesh.
   std::string meshes;
@@ -168,7 +170,7 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 
 std::string Recorder::stats_header() {
   return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
-         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap";
+         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap,velocity_error";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
@@ -179,10 +181,12 @@ std::string Recorder::stats_row(const StepStats& s) {
   const std::string crossings = s.intersections >= 0 ? std::to_string(s.intersections) : "";
   const auto ms = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3f}", v); };
   const std::string gap = std::isnan(s.seam_gap) ? "" : fmt::format("{:.6g}", s.seam_gap);
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{}", s.frame, s.step,
+  // Infinite where no estimate was possible (a solve stopped by its gradient after one step).
+  const std::string verr = std::isnan(s.velocity_error) ? "" : fmt::format("{:.3e}", s.velocity_error);
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
-                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap);
+                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap, verr);
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

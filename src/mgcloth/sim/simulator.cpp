@@ -248,6 +248,11 @@ solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_fac
     problem.hierarchy = group.solver_hierarchy(solver.needs_level_objectives());
   problem.project = group.feasibility_projection();
   solvers::check_step_limits(solver, *problem.objective, m_scene.file);
+  if (m_scene.solver.velocity_tol > 0.0 && !solver.estimates_step_error())
+    throw InputError(fmt::format("{}: solver.velocity_tol: solver \"{}\" is a single-level smoother, whose steps do "
+                                 "not show how far it is from the solution; use rel_grad with it, or a multilevel or "
+                                 "Newton solver (fmg, newton, newton-mg, ...) with velocity_tol",
+                                 m_scene.file, solver.name()));
   return problem;
 }
 
@@ -277,7 +282,9 @@ std::vector<StepStats> Simulator::step() {
                                      m_frame + 1, m_step + 1, t + h, e.what()));
       }
     };
-    s.report = solve(m_record_trace ? &s.trace : nullptr, m_scene.solver.stop);
+    solvers::Stop stop = m_scene.solver.stop;
+    stop.step_tol = m_scene.solver.velocity_tol * h;
+    s.report = solve(m_record_trace ? &s.trace : nullptr, stop);
     // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
     // step is solved again from there, until they are where their motion puts them.
     for (int round = 1; group.obstacles_behind(); ++round) {
@@ -288,7 +295,7 @@ std::vector<StepStats> Simulator::step() {
                                      m_scene.file, group_label(group), m_frame + 1, m_step + 1, t + h, kObstacleRounds));
       group.advance_obstacles(x);
       // The step's criterion stays relative to the gradient it started with, not to the smaller one of this start.
-      solvers::Stop again = m_scene.solver.stop;
+      solvers::Stop again = stop;
       again.abs_grad = std::max(again.abs_grad, again.rel_grad * s.report.initial_grad_norm);
       const solvers::SolveReport more = solve(nullptr, again);
       s.report.iterations += more.iterations;
@@ -296,7 +303,9 @@ std::vector<StepStats> Simulator::step() {
       s.obstacle_rounds = round;
       s.report.status = more.status;
       s.report.grad_norm = more.grad_norm;
+      s.report.step_error = more.step_error;
     }
+    s.velocity_error = s.report.step_error / h;
     const VecX before = x;
     VecX v;
     if (solver.finish_step(group.x(), h, x, v))

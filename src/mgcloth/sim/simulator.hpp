@@ -41,6 +41,9 @@ struct StepStats {
   /// Sewn cloths (stitch groups: a pattern's seams, an OBJ's UV seams): the largest distance between two points sewn
   /// together at the step's end, m (NaN: no cloth of the step has seams). Below the contact layer, a seam is shut.
   double seam_gap = std::numeric_limits<double>::quiet_NaN();
+  /// The solver's estimate of the largest per-vertex velocity error of the step's end (SolveReport::step_error / h),
+  /// m/s, whatever the stop rule; infinite where no estimate was possible, NaN where the solver makes none.
+  double velocity_error = std::numeric_limits<double>::quiet_NaN();
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;

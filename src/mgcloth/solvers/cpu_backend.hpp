@@ -33,12 +33,15 @@ class CpuVectors : public FmgBackend {
   void copy(Vec to, Vec from) override { (*this)[to] = (*this)[from]; }
   void take(Vec to, Vec from) override { (*this)[to].swap((*this)[from]); }
   void multiply(Vec in, Vec out) override;
+  void mark(Vec x) override { m_mark = (*this)[x]; }
+  double max_distance_from_mark(Vec x) override { return max_vertex_distance((*this)[x], m_mark); }
 
  protected:
   const physics::Objective& m_obj;
   std::function<Index(VecX&)> m_project;
   const linalg::BlockMatrix3* m_model;
   std::array<VecX, NumVecs> m_v;
+  VecX m_mark;
 };
 
 }  // namespace mgcloth::solvers

@@ -17,6 +17,9 @@ struct SolverConfig {
     return s;
   }();
   Json params = Json::object();  ///< solver-specific parameters, validated when the solver is built
+  /// Stop a step also once no vertex's velocity is estimated to be off by more than this (m/s; 0: off): the
+  /// simulator sets Stop::step_tol = velocity_tol · h for each step of length h.
+  double velocity_tol = 0.0;
 };
 
 /// Names of the solvers this build provides.

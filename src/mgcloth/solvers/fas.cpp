@@ -115,8 +115,13 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
   rep.status = "max_iters";
   int k = 0;
   const VecX none;
+  StepTracker steps(stop);
   for (; k < stop.max_iters; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
+    if (steps.converged(x)) {
+      rep.status = "converged";
+      break;
+    }
     const double e_before = e;
     cycle(0, x, none);
     e = obj.value(x);
@@ -144,6 +149,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
     }
   }
   finish_report(rep, k, e, gnorm, target, timer.ms());
+  steps.finish(x, rep);
   return rep;
 }
 

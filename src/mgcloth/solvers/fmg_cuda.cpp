@@ -56,6 +56,9 @@ class FmgCuda::Backend final : public FmgBackend {
     return m_d.vcycle(r, d);
   }
   void newton_step(Vec r, Vec c, double tol) override { m_d.newton_step(r, c, tol); }
+  // Two copies of x per cycle: small next to a cycle's V-cycle and assembly.
+  void mark(Vec x) override { m_d.download(x, m_mark); }
+  double max_distance_from_mark(Vec x) override { return max_vertex_distance(host(x), m_mark); }
   void synchronize() override { m_d.synchronize(); }
   std::vector<std::pair<std::string, double>> counters() const override { return m_d.counters(); }
 
@@ -67,7 +70,7 @@ class FmgCuda::Backend final : public FmgBackend {
   cuda::DeviceFmg& m_d;
   const physics::Objective& m_obj;
   bool m_project;
-  VecX m_host;
+  VecX m_host, m_mark;
 };
 
 std::string FmgCuda::carried_state() const {

@@ -125,7 +125,10 @@ class Solve {
     if (!b.limits_steps()) return true;
     b.combine(V::GTrial, 1.0, V::Trial, -1.0, V::X);
     const double t = timed(n.step_limit_ms, [&] { return b.max_step(V::X, V::GTrial, 1.0); });
-    if (t < 1.0) b.combine(V::Trial, 1.0, V::X, t, V::GTrial);
+    if (t < 1.0) {
+      b.combine(V::Trial, 1.0, V::X, t, V::GTrial);
+      cycle_cut = true;
+    }
     return t > 0.0;
   }
   /// x ← trial, the step kept as s (momentum) unless `forget`.
@@ -160,6 +163,9 @@ class Solve {
   double e = 0.0, gnorm = 0.0, last_alpha = 0.0, omega = 1.0, initial = 0.0;
   long cheb_k = 0;
   bool have_s = false, as_stale = false, model_poor = false, force_update = false;
+  // Stop::step_tol: the cycles' steps, and whether the motion's limit (contact) cut one of this cycle's moves short.
+  StepErrorEstimate step_error{stop.step_tol};
+  bool cycle_cut = false, marked = false;
 };
 
 // Projective Dynamics (§4.4): the full correction, Chebyshev-weighted, no line search.
@@ -254,7 +260,10 @@ bool Solve::line_search(Index level, double p_slope) {
   // contact says nothing about the level's scale, so it does not change the level's start.
   const double alpha0 =
       b.limits_steps() ? timed(n.step_limit_ms, [&] { return b.max_step(V::X, V::P, start); }) : start;
-  if (alpha0 < start) logger().debug("{}: level {} step limited to {:.3g} of {:.3g}", name, level, alpha0, start);
+  if (alpha0 < start) {
+    logger().debug("{}: level {} step limited to {:.3g} of {:.3g}", name, level, alpha0, start);
+    cycle_cut = true;
+  }
   if (!(alpha0 > 0.0)) {
     ++n.rejected;
     return false;
@@ -403,6 +412,15 @@ SolveReport Solve::run(const std::vector<FmgStage>& stages) {
   bool done = false;
   for (; k < stop.max_iters && !done; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
+    if (marked) step_error.record(b.max_distance_from_mark(V::X), cycle_cut);
+    marked = false;
+    if (step_error.met()) {
+      rep.status = "converged";
+      break;
+    }
+    b.mark(V::X);
+    marked = true;
+    cycle_cut = false;
     const bool fresh_matrix = !per_solve || k == 0 || force_update;
     if (fresh_matrix) update_matrix();
     force_update = false;
@@ -441,7 +459,9 @@ SolveReport Solve::run(const std::vector<FmgStage>& stages) {
       break;
     }
   }
+  if (marked) step_error.record(b.max_distance_from_mark(V::X), cycle_cut);
   finish_report(rep, k, e, gnorm, target, timer.ms());
+  rep.step_error = step_error.error();
   rep.counters = {{"directions", static_cast<double>(n.directions)},
                   {"rejected_directions", static_cast<double>(n.rejected)},
                   {"energy_evals", static_cast<double>(n.energy_evals)},

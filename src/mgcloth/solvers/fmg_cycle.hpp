@@ -70,6 +70,10 @@ class FmgBackend {
   virtual double correction(Index level, bool linear, int sweeps, Vec r, Vec d) = 0;
   /// The model's Newton step A_0 c = r by V-cycles from zero until ‖r − A_0 c‖ <= tol.
   virtual void newton_step(Vec r, Vec c, double tol) = 0;
+  /// Remembers x, and measures the largest per-vertex distance of a later x from it: the step of one cycle, for
+  /// Stop::step_tol.
+  virtual void mark(Vec x) = 0;
+  virtual double max_distance_from_mark(Vec x) = 0;
   /// Waits for queued work (the device's), so that a timer around a call measures the call.
   virtual void synchronize() {}
   /// What the backend measured: the time of its own phases (assembly, Galerkin, smoothing, ...), its own counts.

@@ -65,8 +65,15 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   bool try_exact = true;
   rep.status = "max_iters";
   int k = 0;
+  StepTracker steps(stop);
+  bool cut = false;  // the last step was cut short by the objective's max_step (contact)
   for (; k < stop.max_iters; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
+    if (steps.converged(x, cut)) {
+      rep.status = "converged";
+      break;
+    }
+    cut = false;
     const double forcing = m_params.linear.rel_tol > 0.0 ? m_params.linear.rel_tol
                                                           : std::min(0.01, gnorm / rep.initial_grad_norm);
     bool factored = false;
@@ -104,7 +111,9 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     }
     double slope = g.dot(d);
     if (!m_params.use_line_search) {
-      x += obj.max_step(x, d, 1.0) * d;
+      const double alpha = obj.max_step(x, d, 1.0);
+      cut = alpha < 1.0;
+      x += alpha * d;
       if (problem.project) problem.project(x);
       e = obj.value(x);
       obj.gradient(x, g);
@@ -120,7 +129,9 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     // Once the predicted decrease is below the round-off of the energy itself, the Armijo test compares noise;
     // there, a full step is judged by the gradient norm instead.
     if (-slope < 1e-13 * std::max(1.0, std::abs(e))) {
-      trial = x + obj.max_step(x, d, 1.0) * d;
+      const double alpha = obj.max_step(x, d, 1.0);
+      cut = alpha < 1.0;
+      trial = x + alpha * d;
       VecX g_trial;
       obj.gradient(trial, g_trial);
       const double gn = g_trial.norm();
@@ -138,6 +149,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     }
     const double limit = obj.limits_steps() ? obj.max_step(x, d, m_params.line_search.max_alpha) : kInf;
     const auto ls = backtracking(energy, x, e, d, slope, 1.0, m_params.line_search, trial, -0.5 * slope, limit);
+    cut = limit < 1.0;
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
       double floor = 0.0;
@@ -168,6 +180,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
     logger().debug("newton {:3d}: E = {:.12e}  |g| = {:.3e}  alpha = {:.3g}  shift = {:.2e}  dE/model = {:.3f}", k + 1, e, gnorm, ls.alpha, shift, decrease / (-0.5 * slope * ls.alpha));
   }
   finish_report(rep, k, e, gnorm, target, timer.ms());
+  steps.finish(x, rep, cut);
   return rep;
 }
 

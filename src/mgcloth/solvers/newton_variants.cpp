@@ -89,11 +89,20 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
   const int max_iters = linearized ? 1 : stop.max_iters;
   rep.status = "max_iters";
   int k = 0;
+  StepTracker steps(stop);
+  bool cut = false;  // the last step was cut short by the objective's max_step (contact)
   for (; k < max_iters; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
+    if (steps.converged(x, cut)) {
+      rep.status = "converged";
+      break;
+    }
+    cut = false;
     direction(obj, x, g, p);
     if (m_params.mode != ExactNewtonMode::LineSearch) {
-      const double alpha = obj.max_step(x, p, linearized ? 1.0 : m_params.alpha);
+      const double full = linearized ? 1.0 : m_params.alpha;
+      const double alpha = obj.max_step(x, p, full);
+      cut = alpha < full;
       x += alpha * p;
       advance(k, alpha);
       continue;
@@ -103,7 +112,9 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     // there a full step is judged by the gradient norm instead (as Newton does, but relative to |E| alone, which
     // for cloth energies of a few centijoules is where the noise is).
     if (-slope < 1e-13 * std::abs(e)) {
-      trial = x + obj.max_step(x, p, 1.0) * p;
+      const double alpha = obj.max_step(x, p, 1.0);
+      cut = alpha < 1.0;
+      trial = x + alpha * p;
       obj.gradient(trial, g_trial);
       if (!(g_trial.norm() < gnorm)) {
         rep.status = at_roundoff_floor(obj, x, gnorm) ? "stagnated" : "stalled";
@@ -115,6 +126,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     }
     const double limit = obj.limits_steps() ? obj.max_step(x, p, m_params.line_search.max_alpha) : kInf;
     const auto ls = backtracking(energy, x, e, p, slope, 1.0, m_params.line_search, trial, 0.0, limit);
+    cut = limit < 1.0;
     if (!ls.success) {
       // Near a minimum the Armijo test can fail only because energy differences drop below round-off.
       double floor = 0.0;
@@ -139,6 +151,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
     logger().debug("{} {:3d}: E = {:.12e}  |g| = {:.3e}  alpha = {:.3g}", m_name, k + 1, e, gnorm, ls.alpha);
   }
   finish_report(rep, k, e, gnorm, target, timer.ms());
+  steps.finish(x, rep, cut);
   if (linearized && k == 1) {
     rep.status = gnorm <= target ? "converged" : "linearized";
     rep.converged = gnorm <= target;

@@ -71,6 +71,7 @@ class NonlinearFMG final : public NonlinearSolver {
   /// stiffness grows without bound: they are refused with cloth contact.
   bool supports_step_limits() const override { return !m_params.projective; }
   bool needs_hierarchy() const override { return !m_params.single_level; }
+  bool estimates_step_error() const override { return !m_params.single_level; }
   std::vector<physics::EnergyForm> energy_forms() const override {
     if (m_params.projective) return {physics::EnergyForm::Projective};
     return NonlinearSolver::energy_forms();

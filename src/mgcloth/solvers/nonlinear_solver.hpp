@@ -28,6 +28,10 @@ struct Problem {
 struct Stop {
   double rel_grad = 1e-6;  ///< stop when |∇E(x)| <= rel_grad · |∇E(x_0)|
   double abs_grad = 0.0;   ///< or when |∇E(x)| <= abs_grad
+  /// Or when the estimated largest per-vertex distance of x to the minimizer is at most step_tol (0: never). The
+  /// estimate is StepErrorEstimate's; the simulator sets step_tol = velocity_tol · h, so that a solve stops once no
+  /// vertex's velocity is off by more than velocity_tol (m/s).
+  double step_tol = 0.0;
   int max_iters = 100;
   double max_seconds = kInf;
   /// Stop with status "interrupted" once mgcloth::interrupted() (SIGINT or SIGTERM under the CLI's handler).
@@ -57,6 +61,10 @@ struct SolveReport {
   double initial_grad_norm = 0.0;
   double wall_ms = 0.0;
   std::string status;  ///< "converged", "max_iters", "time_limit", "stalled" (no decrease possible in floating point)
+  /// StepErrorEstimate's last estimate of the largest per-vertex distance of x to the minimizer (m), made whatever
+  /// the stop rule; infinite where no estimate was possible (fewer than two moving iterations, steps not
+  /// contracting, the last step cut short by contact); NaN where the solver makes none.
+  double step_error = std::numeric_limits<double>::quiet_NaN();
   /// Solver-specific counters of the solve (e.g. line-search evaluations, time per phase), for statistics.
   std::vector<std::pair<std::string, double>> counters;
 };
@@ -81,6 +89,10 @@ class NonlinearSolver {
   /// Whether every trial point of minimize() is limited by the objective's max_step (Term::max_step), as an
   /// objective with cloth contact needs to stay intersection-free (check_step_limits refuses the others).
   virtual bool supports_step_limits() const { return false; }
+  /// Whether SolveReport::step_error, and so Stop::step_tol, can be trusted: a single-level smoother's steps do not
+  /// show how slowly it removes smooth errors (gs-chebyshev stopped with an estimate of 1e-3 m/s and 3.3e-2 m/s
+  /// left, tests/solvers/test_step_error.cpp), so the simulator refuses a velocity tolerance for it.
+  virtual bool estimates_step_error() const { return true; }
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
@@ -139,6 +151,49 @@ using physics::kRoundoffFloorFactor;
 /// gradient at a small probe). On success x, e, g and grad_norm describe the new point.
 bool steepest_descent_fallback(const physics::Objective& objective, const linalg::BlockMatrix3* A, VecX& x, double& e,
                                VecX& g, double& grad_norm);
+/// The largest distance between corresponding vertices (consecutive coordinate triples) of a and b.
+double max_vertex_distance(const VecX& a, const VecX& b);
+
+/// The a-posteriori error estimate of a linearly contracting iteration (Hairer & Wanner, Solving ODEs II, §IV.8,
+/// eqs. 8.10-8.11, their stopping rule for the Newton iterations of implicit integrators): with Δ_k the step of
+/// iteration k (largest per-vertex length) and Θ_k = max(Δ_k/Δ_{k−1}, Δ_{k−1}/Δ_{k−2}) its observed contraction,
+/// an iteration that contracts by Θ_k from here on is within Θ_k/(1 − Θ_k)·Δ_k of its limit (the first estimate
+/// comes after three steps). Steps cut short by a limit on the motion (contact) are recorded with `cut`: they say
+/// nothing of the contraction, and no ratio is formed with them.
+class StepErrorEstimate {
+ public:
+  /// tol: Stop::step_tol (0: the estimate is made, for the report, but never stops a solve).
+  explicit StepErrorEstimate(double tol) : m_tol(tol) {}
+  /// Records the step of one iteration that moved x (a step of 0, nothing moved, is not an iteration of the map
+  /// and is ignored); returns the new estimate.
+  double record(double step, bool cut = false);
+  /// Whether the last estimate is within a tolerance > 0.
+  bool met() const { return m_tol > 0.0 && m_error <= m_tol; }
+  double error() const { return m_error; }
+
+ private:
+  double m_tol = 0.0, m_previous = kInf, m_error = kInf;
+  double m_ratio = std::numeric_limits<double>::quiet_NaN();  ///< the last step's ratio to the one before
+  bool m_previous_cut = true;
+};
+
+/// StepErrorEstimate of a solver whose iterate is a VecX: at the top of every iteration, converged(x) records x's
+/// change since the last call and says whether Stop::step_tol is met; finish() records the last iteration's step
+/// and fills SolveReport::step_error. One copy of x per iteration.
+class StepTracker {
+ public:
+  explicit StepTracker(const Stop& stop) : m_estimate(stop.step_tol) {}
+  explicit StepTracker(double step_tol) : m_estimate(step_tol) {}
+  /// `cut`: the motion's limit (contact) cut the step since the last call short.
+  bool converged(const VecX& x, bool cut = false);
+  void finish(const VecX& x, SolveReport& report, bool cut = false);
+
+ private:
+  StepErrorEstimate m_estimate;
+  VecX m_mark;
+  bool m_marked = false;
+};
+
 /// The report's final fields (a solve that ran out of iterations exactly at the target counts as converged).
 void finish_report(SolveReport& report, int iterations, double energy, double grad_norm, double target, double wall_ms);
 

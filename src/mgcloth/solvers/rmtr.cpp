@@ -685,6 +685,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   double last_checkpoint = timer.seconds();
   int cycle = 0;
   VecX previous;
+  StepTracker steps(stop.step_tol);
   for (;; ++cycle) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep) || cycle >= stop.max_iters) {
       if (rep.status.empty()) rep.status = "max_iters";
@@ -697,6 +698,10 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
     if ((last_radius > m_params.tr.stagnation_delta || last_newton) && last_dx > 0.0 &&
         (last_df < m_params.tr.stagnation_tol || last_dx < m_params.tr.stagnation_tol)) {
       rep.status = "stagnated";
+      break;
+    }
+    if (steps.converged(x)) {
+      rep.status = "converged";
       break;
     }
     previous = x;
@@ -731,6 +736,7 @@ SolveReport Rmtr::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* t
   }
   accumulate();
   finish_report(rep, cycle, m_finest_energy, gnorm, target, timer.ms());
+  steps.finish(x, rep);
   int corr_acc = 0, corr_rej = 0, corr_back = 0;
   for (const auto& c : m_counters) {
     corr_acc += c.corrections_accepted;

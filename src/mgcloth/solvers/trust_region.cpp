@@ -295,8 +295,14 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
   Run r{.h = h, .control = control, .clock = control.timer ? *control.timer : own_clock};
   start(r, x);
   int i = 0;
+  StepTracker steps(control.step_tol);
+  bool cut = false;  // the last accepted step lay on the trust region's boundary
   for (; i < control.max_iters; ++i) {
     if (stops(r, x, radius)) break;
+    if (steps.converged(x, cut)) {
+      r.res.status = "converged";
+      break;
+    }
     if (!r.have_hessian) prepare_model(r, x, i);
     const auto qp = solve_qp(radius, r.res.initial_grad_norm, control.metric);
     TrIteration it;
@@ -317,8 +323,12 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       r.res.status = "stalled";
       break;
     }
-    if (it.accepted) accept(r, x, qp, it, v, i);
-    else reject(r);
+    if (it.accepted) {
+      accept(r, x, qp, it, v, i);
+      cut = !(it.step_norm < (1.0 - 1e-9) * radius);
+    } else {
+      reject(r);
+    }
     const double next = control.radius_cap ? control.radius_cap(x, v.next_radius) : v.next_radius;
     r.last_radius = radius;
     it.next_radius = next;
@@ -341,6 +351,9 @@ LocalTrResult LocalTrustRegion::run(const LevelModel& h, VecX& x, double& radius
       break;
     }
   }
+  SolveReport tracked;
+  steps.finish(x, tracked, cut);
+  r.res.step_error = tracked.step_error;
   r.res.iterations = i;
   r.res.energy = r.f;
   r.res.grad_norm = r.gnorm;
@@ -380,6 +393,7 @@ SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, T
   control.max_iters = stop.max_iters;
   control.rel_grad = stop.rel_grad;
   control.abs_grad = stop.abs_grad;
+  control.step_tol = stop.step_tol;
   control.max_seconds = stop.max_seconds;
   control.interruptible = stop.interruptible;
   control.checkpoint = stop.checkpoint;
@@ -393,6 +407,7 @@ SolveReport TrustRegion::minimize(Problem& problem, VecX& x, const Stop& stop, T
   rep.status = r.status;
   rep.initial_grad_norm = r.initial_grad_norm;
   finish_report(rep, r.iterations, r.energy, r.grad_norm, r.grad_target, timer.ms());
+  rep.step_error = r.step_error;
   const TrCounters& c = m_core.counters();
   rep.counters = {{"accepted", c.accepted},
                   {"rejected", c.rejected},

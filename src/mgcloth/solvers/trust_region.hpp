@@ -131,6 +131,8 @@ struct LocalTrControl {
   /// Stop when ‖∇h‖ ≤ max(abs_grad, rel_grad·‖∇h(x₀)‖) (0, 0: never by the gradient).
   double rel_grad = 0.0;
   double abs_grad = 0.0;
+  /// Stop::step_tol: or stop once StepErrorEstimate puts x within step_tol of the minimizer (0: never).
+  double step_tol = 0.0;
   double max_seconds = kInf;
   bool interruptible = false;  ///< stop as "interrupted" once mgcloth::interrupted()
   /// Stop::checkpoint, called after accepted steps at most every checkpoint_seconds.
@@ -161,6 +163,7 @@ struct LocalTrResult {
   double grad_norm = 0.0;
   double initial_grad_norm = 0.0;
   double grad_target = 0.0;
+  double step_error = std::numeric_limits<double>::quiet_NaN();  ///< SolveReport::step_error
 };
 
 /// Local_TR (Kopaničáková 2019, Alg. 4.1) with the radius update of Alg. 4.3 line 2, as a reusable core: the
