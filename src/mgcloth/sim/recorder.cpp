@@ -181,7 +181,7 @@ std::string Recorder::stats_row(const StepStats& s) {
   const std::string crossings = s.intersections >= 0 ? std::to_string(s.intersections) : "";
   const auto ms = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3f}", v); };
   const std::string gap = std::isnan(s.seam_gap) ? "" : fmt::format("{:.6g}", s.seam_gap);
-  // Infinite where no estimate was possible (a solve stopped by its gradient after one step).
+  // Infinite where no estimate was possible (fewer than three moving iterations, steps that did not contract).
   const std::string verr = std::isnan(s.velocity_error) ? "" : fmt::format("{:.3e}", s.velocity_error);
   return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,

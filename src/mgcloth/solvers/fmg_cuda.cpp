@@ -56,7 +56,7 @@ class FmgCuda::Backend final : public FmgBackend {
     return m_d.vcycle(r, d);
   }
   void newton_step(Vec r, Vec c, double tol) override { m_d.newton_step(r, c, tol); }
-  // Two copies of x per cycle: small next to a cycle's V-cycle and assembly.
+  // Two host copies of x per cycle, made whatever the stop rule; their cost on the device is not measured yet.
   void mark(Vec x) override { m_d.download(x, m_mark); }
   double max_distance_from_mark(Vec x) override { return max_vertex_distance(host(x), m_mark); }
   void synchronize() override { m_d.synchronize(); }

@@ -62,7 +62,7 @@ struct SolveReport {
   double wall_ms = 0.0;
   std::string status;  ///< "converged", "max_iters", "time_limit", "stalled" (no decrease possible in floating point)
   /// StepErrorEstimate's last estimate of the largest per-vertex distance of x to the minimizer (m), made whatever
-  /// the stop rule; infinite where no estimate was possible (fewer than two moving iterations, steps not
+  /// the stop rule; infinite where no estimate was possible (fewer than three moving iterations, steps not
   /// contracting, the last step cut short by contact); NaN where the solver makes none.
   double step_error = std::numeric_limits<double>::quiet_NaN();
   /// Solver-specific counters of the solve (e.g. line-search evaluations, time per phase), for statistics.
