@@ -185,3 +185,85 @@ TEST(GaussSeidel, AdaptiveMaskSkipsRowsWithSmallResidual) {
   EXPECT_GT(count, 0);
   EXPECT_LT(count, A.rows());
 }
+
+namespace {
+/// grid_spd with full 3x3 off-diagonal blocks (A_cr = A_rcᵀ, not symmetric themselves), whose entries float cannot
+/// hold exactly.
+BlockMatrix3 grid_spd_full_blocks(Index n, std::uint64_t seed) {
+  BlockMatrix3 A = grid_spd(n, seed);
+  std::mt19937_64 rng(seed + 1);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  for (Index r = 0; r < A.rows(); ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
+      const Index c = A.col_indices()[k];
+      if (c <= r) continue;
+      Mat3 e;
+      for (int i = 0; i < 9; ++i) e.data()[i] = u(rng);
+      A.block(k) += e;
+      A.block(A.find(c, r)) += e.transpose();
+      A.block(A.diagonal(r)) += 0.6 * Mat3::Identity();  // |e| ≤ 0.6 in the 2-norm: stays diagonally dominant
+      A.block(A.diagonal(c)) += 0.6 * Mat3::Identity();
+    }
+  return A;
+}
+}  // namespace
+
+TEST(GaussSeidel, SinglePrecisionIsExactlyGaussSeidelOfTheRoundedMatrix) {
+  const BlockMatrix3 A = grid_spd_full_blocks(9, 11);
+  BlockMatrix3 rounded = A;
+  for (Mat3& b : rounded.blocks())
+    for (int e = 0; e < 9; ++e) b.data()[e] = static_cast<float>(b.data()[e]);
+  MultiColorGaussSeidel single(A, MultiColorGaussSeidel::Precision::Single), exact(rounded), dbl(A);
+  single.set_matrix(A);
+  exact.set_matrix(rounded);
+  dbl.set_matrix(A);
+  EXPECT_EQ(single.precision(), MultiColorGaussSeidel::Precision::Single);
+  std::srand(3);
+  const VecX b = VecX::Random(3 * A.rows());
+  VecX xs = VecX::Zero(b.size()), xe = xs, xd = xs;
+  single.symmetric_sweeps(b, xs, 3);
+  exact.symmetric_sweeps(b, xe, 3);
+  dbl.symmetric_sweeps(b, xd, 3);
+  EXPECT_LE((xs - xe).norm(), 1e-14 * xe.norm());
+  // It did round: the double smoother of A differs at float's precision, and no more.
+  EXPECT_GT((xs - xd).norm(), 1e-10 * xd.norm());
+  EXPECT_LT((xs - xd).norm(), 1e-5 * xd.norm());
+}
+
+TEST(GaussSeidel, SinglePrecisionSmootherIsSymmetricPositiveDefinite) {
+  // Ã keeps A's symmetry (each entry and its transpose partner round alike), so Theorem 4.1 holds for Ã.
+  const BlockMatrix3 A = grid_spd_full_blocks(5, 12);
+  MultiColorGaussSeidel gs(A, MultiColorGaussSeidel::Precision::Single);
+  gs.set_matrix(A);
+  const Index n = 3 * A.rows();
+  Eigen::MatrixXd M(n, n);
+  for (Index j = 0; j < n; ++j) {
+    VecX x = VecX::Zero(n);
+    gs.symmetric_sweeps(VecX::Unit(n, j), x, 2);
+    M.col(j) = x;
+  }
+  EXPECT_LE((M - M.transpose()).norm(), 1e-12 * M.norm());
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (M + M.transpose())).eigenvalues().minCoeff(), 0.0);
+}
+
+TEST(GaussSeidel, ColorOrderedCopyFollowsNewValuesAndPatterns) {
+  // set_matrix() with new values on the same pattern (blocks that were multiples of the identity now full, then
+  // full blocks again), then with another pattern, gives what a fresh smoother gives.
+  const BlockMatrix3 A = grid_spd(7, 13), B = grid_spd_full_blocks(7, 14), B2 = grid_spd_full_blocks(7, 16),
+                     C = grid_spd(6, 15);
+  MultiColorGaussSeidel gs(A);
+  gs.set_matrix(A);
+  std::srand(4);
+  for (const BlockMatrix3* M : {&B, &B2, &A, &C}) {
+    gs.set_matrix(*M);
+    MultiColorGaussSeidel fresh(*M);
+    fresh.set_matrix(*M);
+    const VecX b = VecX::Random(3 * M->rows());
+    VecX x = VecX::Zero(b.size()), y = x;
+    gs.symmetric_sweeps(b, x, 2);
+    fresh.symmetric_sweeps(b, y, 2);
+    // Round-off apart: back on A, blocks classified full on B stay full where a fresh smoother stores scalars, and
+    // the sums run in another order.
+    EXPECT_LE((x - y).norm(), 1e-14 * y.norm());
+  }
+}

@@ -14,7 +14,10 @@ void set_num_threads(int n) {
   // CHOLMOD's own OpenMP loops ask for 4 threads by a num_threads clause (its compile-time default), which
   // omp_set_num_threads does not override; with dynamic adjustment libgomp may give them fewer where the cores
   // are busy, which is all a single-threaded run can ask for.
-  if (n == 1) omp_set_dynamic(1);
+  // Set both ways: a program that goes back from 1 thread to more (a benchmark over thread counts, a Python
+  // session) would otherwise keep dynamic adjustment, under which libgomp gives a loop one thread whenever the load
+  // average says the cores are busy.
+  omp_set_dynamic(n == 1 ? 1 : 0);
   using SetThreads = void (*)(int);
   if (auto* set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(n);
 }

@@ -8,13 +8,21 @@ namespace mgcloth::linalg {
 /// when A is SPD (Wang 2018, Theorem 4.1) — what makes smoothed corrections descent directions. Rows within a
 /// color are independent and run in parallel. The coloring is computed once per pattern; set_matrix() per new
 /// values.
+///
+/// set_matrix() copies the off-diagonal blocks into color order (the rows of each color contiguous, the diagonal
+/// left out), so that a pass over a color streams its rows instead of jumping between them: the jumps cost a memory
+/// latency per row, which made a pass several times slower than a product with A (bench/RESULTS.md, issue 30).
+/// With Precision::Single the copy holds floats: the smoother is then the exact symmetric Gauss-Seidel of Ã, A's
+/// blocks rounded to float (still symmetric), at half the bytes per pass; x, b and the sums stay in double.
 class MultiColorGaussSeidel {
  public:
-  MultiColorGaussSeidel() = default;
-  explicit MultiColorGaussSeidel(const BlockMatrix3& pattern);
+  enum class Precision { Double, Single };
 
-  /// Takes new values: inverts the diagonal blocks (and colors the rows again when the pattern is not the one
-  /// colored before). Throws SolveError for a singular block.
+  MultiColorGaussSeidel() = default;
+  explicit MultiColorGaussSeidel(const BlockMatrix3& pattern, Precision precision = Precision::Double);
+
+  /// Takes new values: copies the blocks into color order and inverts the diagonal blocks (and colors the rows
+  /// again when the pattern is not the one colored before). Throws SolveError for a singular block.
   void set_matrix(const BlockMatrix3& A);
   /// `sweeps` symmetric sweeps on x. With a mask, rows whose mask entry is 0 are skipped (adaptive smoothing hook).
   void symmetric_sweeps(const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask = nullptr) const;
@@ -22,14 +30,41 @@ class MultiColorGaussSeidel {
   void sweep(const VecX& b, VecX& x, bool forward, const std::vector<char>* mask = nullptr) const;
 
   const std::vector<std::vector<Index>>& colors() const { return m_colors; }
+  Precision precision() const { return m_precision; }
+  /// The bytes one pass over all colors must move at least: the copy's values and columns, the per-row layout and
+  /// inverted diagonal, b read, x read and written (neighbours' x counted once, as if cached).
+  double pass_bytes() const;
 
  private:
-  void relax_row(Index r, const VecX& b, VecX& x) const;
+  /// The color-ordered layout of the current pattern (m_rows, m_color_begin, m_offsets, m_cols).
+  void build_layout();
+  /// Relaxes the rows of color c.
+  void relax_color(Index c, const VecX& b, VecX& x, const std::vector<char>* mask) const;
+  template <class T>
+  void relax_rows(const T* values, Index begin, Index end, const VecX& b, VecX& x, const std::vector<char>* mask) const;
 
-  const BlockMatrix3* m_A = nullptr;
+  /// Which off-diagonal blocks of the current values are multiples of the identity (stored as one number), and the
+  /// value layout that follows from it. Returns false where a block classified scalar is no longer one.
+  void classify(const BlockMatrix3& A);
+  bool copy_values(const BlockMatrix3& A);
+
+  bool m_ready = false;
+  Precision m_precision = Precision::Double;
   std::vector<std::vector<Index>> m_colors;
-  std::vector<Index> m_offsets, m_cols;  ///< the pattern m_colors belong to
-  std::vector<Mat3> m_inv_diag;
+  std::vector<Index> m_pattern_offsets, m_pattern_cols;  ///< the pattern m_colors belong to
+  // Color-ordered copy: packed row i is row m_rows[i]; color c holds packed rows [m_color_begin[c],
+  // m_color_begin[c+1]); its off-diagonal blocks are [m_offsets[i], m_offsets[i+1]) of m_cols, the first m_full[i]
+  // of them full 3x3 blocks (9 values each, column-major like Mat3), the rest multiples of the identity (one value
+  // each: the quadratic bending model's couplings beyond the membrane's one-ring are k·I₃, three quarters of a
+  // cloth Hessian's blocks). Row i's values start at m_value_offsets[i].
+  std::vector<Index> m_rows, m_color_begin, m_offsets, m_cols, m_full;
+  std::vector<Index> m_packed_row;  ///< inverse of m_rows
+  std::vector<size_t> m_value_offsets;
+  std::vector<char> m_scalar;  ///< per block of A's pattern: stored as a multiple of the identity
+  bool m_classified = false;
+  std::vector<double> m_values;
+  std::vector<float> m_values_single;
+  std::vector<Mat3> m_inv_diag;  ///< per packed row
 };
 
 /// The adaptive-smoothing mask (Wang 2018 §4.3): mask[i] = 1 where the residual of block row i has norm >=

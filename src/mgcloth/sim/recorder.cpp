@@ -60,6 +60,8 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   j.erase("threads");
   // Off, the velocity tolerance stops solves as every run before the key existed did: their checkpoints resume.
   if (j["solver"]["velocity_tol"] == 0.0) j["solver"].erase("velocity_tol");
+  // Likewise the smoother's double precision, the only one before the key existed.
+  if (Json& p = j["solver"]["params"]; p.is_object() && p.value("smoother_precision", "") == "double") p.erase("smoother_precision");
   // The scene names an obstacle mesh by its file: what the file holds is part of the scene too, so that a run does
   // not resume with an edited mesh.
   std::string meshes;

@@ -67,6 +67,8 @@ FmgParams read_fmg(JsonReader& r, FmgParams p) {
     p.interleave = r.boolean("interleave", p.interleave);
     p.multigrid.chebyshev = r.boolean("chebyshev_smoothing", p.multigrid.chebyshev);
   }
+  p.multigrid.single_precision_smoother =
+      r.choice("smoother_precision", p.multigrid.single_precision_smoother ? "single" : "double", {"double", "single"}) == "single";
   p.matrix_update = matrix_update_from_string(r.choice("matrix_update", to_string(p.matrix_update), matrix_update_names()));
   p.refresh_below = r.number("refresh_below", p.refresh_below, 0.0, 1.0);
   p.line_search = r.boolean("line_search", p.line_search);
@@ -89,6 +91,7 @@ Json write_fmg(const FmgParams& p) {
     j["interleave"] = p.interleave;
     j["chebyshev_smoothing"] = p.multigrid.chebyshev;
   }
+  j["smoother_precision"] = p.multigrid.single_precision_smoother ? "single" : "double";
   j["matrix_update"] = to_string(p.matrix_update);
   j["refresh_below"] = p.refresh_below;
   j["line_search"] = p.line_search;

@@ -23,13 +23,13 @@ void LinearMultigrid::build_symbolic(const linalg::BlockMatrix3& fine_pattern) {
     const auto& t = *m_p[l];
     if (t.num_rows != pattern->rows())
       throw Error(fmt::format("multigrid: level {} has {} vertices but its prolongation expects {}", l, pattern->rows(), t.num_rows));
-    m_levels[l].smoother = linalg::MultiColorGaussSeidel(*pattern);
+    m_levels[l].smoother = linalg::MultiColorGaussSeidel(*pattern, smoother_precision());
     m_levels[l].rap = linalg::GalerkinProduct(*pattern, t);
     m_levels[l + 1].A = m_levels[l].rap.coarse_pattern();
     pattern = &m_levels[l + 1].A;
     m_sizes.push_back(pattern->rows());
   }
-  if (!m_params.factorize_coarsest) m_levels.back().smoother = linalg::MultiColorGaussSeidel(*pattern);
+  if (!m_params.factorize_coarsest) m_levels.back().smoother = linalg::MultiColorGaussSeidel(*pattern, smoother_precision());
 }
 
 const linalg::BlockMatrix3& LinearMultigrid::matrix(Index l) const { return l == 0 ? *m_fine : m_levels[l].A; }

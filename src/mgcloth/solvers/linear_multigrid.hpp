@@ -22,6 +22,9 @@ struct MultigridParams {
   /// level's RMS residual. 0 = off. Makes the cycle depend on its data, so only for use as a search direction
   /// (with a line search), not as a PCG preconditioner.
   double adaptive_threshold = 0.0;
+  /// The smoothers' copies of the level matrices in float (MultiColorGaussSeidel::Precision::Single): half the
+  /// bytes per sweep; residuals, transfers and the coarsest solve stay double.
+  bool single_precision_smoother = false;
 };
 
 /// Linear geometric multigrid for the 3x3-block systems of Newton's method (Wang 2018 §3.1, Fig. 2a): Galerkin
@@ -82,6 +85,10 @@ class LinearMultigrid {
 
  private:
   void cycle(Index l, const VecX& b, VecX& x) const;
+  linalg::MultiColorGaussSeidel::Precision smoother_precision() const {
+    return m_params.single_precision_smoother ? linalg::MultiColorGaussSeidel::Precision::Single
+                                              : linalg::MultiColorGaussSeidel::Precision::Double;
+  }
   /// The pattern-dependent part, for this fine pattern.
   void build_symbolic(const linalg::BlockMatrix3& fine_pattern);
 
