@@ -249,6 +249,9 @@ int main(int argc, char** argv) {
           0.0);
       linalg::BlockMatrix3 H = A;
       add("Hessian assembly (PSD-projected)", bench::best_ms(repeat, [&] { obj.hessian(x, H, true); }), 76.0 * H.num_blocks());
+      add("  of which: zeroing the matrix", bench::best_ms(repeat, [&] { H.set_zero(); }), 76.0 * H.num_blocks());
+      for (const auto& term : obj.terms())
+        add(fmt::format("  of which: {} Hessian", term->name()), bench::best_ms(repeat, [&] { term->add_hessian(x, H, true); }), 0.0);
       add("Galerkin update, smoother diagonals, coarsest factorization", bench::best_ms(repeat, [&] { mg.set_matrix(A); }), 0.0);
       double galerkin_bytes = 0.0;
       for (Index l = 0; l + 1 < L; ++l)

@@ -12,6 +12,8 @@ class InertiaTerm final : public ElementTerm<1> {
   std::string name() const override { return "inertia"; }
   void set_prediction(const VecX& y, double h);
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  /// m_i/h² I is positive semi-definite as it is: no projection.
+  void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override { element(e, xe, nullptr, &H); }
   const VecX& mass() const { return m_mass; }
   const VecX& prediction() const { return m_y; }
   double inv_h2() const { return m_inv_h2; }
@@ -28,6 +30,8 @@ class GravityTerm final : public ElementTerm<1> {
   GravityTerm(VecX lumped_mass, const Vec3& gravity);
   std::string name() const override { return "gravity"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  /// The energy is linear: its Hessian adds nothing.
+  void add_hessian(const VecX&, linalg::BlockMatrix3&, bool) const override {}
   const VecX& mass() const { return m_mass; }
   const Vec3& gravity() const { return m_gravity; }
 
