@@ -106,6 +106,7 @@ TEST(NonlinearFmg, EverySolverReachesNewtonsMinimizer) {
       {"fmg", {{"residual_levels", 0}}, 400},
       {"fmg", {{"residual_levels", 10}, {"matrix_update", "step"}}, 1000},
       {"fmg", {{"matrix_update", "direction"}}, 200},
+      {"fmg", {{"smoother_precision", "single"}}, 200},
       {"fmg", {{"chebyshev_smoothing", true}, {"adaptive_threshold", 0.2}}, 400},
       {"newton-direct", Json::object(), 100},
       {"newton-amg", Json::object(), 100},
@@ -236,6 +237,23 @@ TEST(NonlinearFmg, FactoryNamesAndParameters) {
   EXPECT_THROW(by_name("fmg", {{"residual_levels", -1}}), InputError);
   EXPECT_THROW(by_name("gs-chebyshev", {{"pre_smooth", 2}}), InputError);  // single level: "sweeps"
   EXPECT_THROW(by_name("fmg", {{"chebyshev_rho", 1.0}}), InputError);
+  EXPECT_THROW(by_name("fmg", {{"smoother_precision", "half"}}), InputError);
+}
+
+TEST(NonlinearFmg, SinglePrecisionSmootherLeavesTheMinimizerUnchanged) {
+  // Float blocks change only the V-cycle's operator; gradients, energies and line searches stay double, so a solve
+  // to a tight tolerance lands on the same minimizer, with the same energy to far below 1e-6 relative.
+  auto s = make_step(900);
+  const VecX xstar = reference_minimizer(s);
+  const double estar = s.cloth->objective.value(xstar);
+  for (const char* precision : {"double", "single"}) {
+    auto solver = by_name("fmg", {{"smoother_precision", precision}});
+    VecX x;
+    const auto rep = run(*solver, s, x, 1e-10, 200);
+    EXPECT_EQ(rep.status, "converged") << precision;
+    EXPECT_LT((x - xstar).norm(), 1e-7 * xstar.norm()) << precision;
+    EXPECT_LE(std::abs(s.cloth->objective.value(x) - estar), 1e-10 * std::abs(estar)) << precision;
+  }
 }
 
 TEST(NonlinearFmg, AClothAtRestIsNotAnErrorForAnySolver) {
