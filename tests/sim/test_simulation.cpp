@@ -79,6 +79,28 @@ TEST(Simulation, HangingClothStaysAttachedAndSwingsDown) {
   EXPECT_LT(as_columns(body.x()).row(2).minCoeff(), 0.3);  // it fell from z = 1 and hangs below its pins
 }
 
+// The check's reading against an independent one: the distance of a loosely stopped step to the same step solved by
+// FMG to round-off.
+TEST(Simulation, AccuracyCheckMeasuresTheDistanceToTheStepsMinimizer) {
+  sim::Scene loose = shipped("hanging", 400, 1), tight = loose;
+  loose.solver.stop.rel_grad = 1e-1;
+  tight.solver.stop.rel_grad = 1e-11;
+  tight.solver.stop.max_iters = 1000;
+  sim::Simulator a(loose), b(tight);
+  a.set_accuracy_check(true);
+  const std::vector<sim::StepStats> sa = a.step();
+  const std::vector<sim::StepStats> sb = b.step();
+  ASSERT_TRUE(sb[0].report.converged) << sb[0].report.status;
+  const double h = loose.step_size();
+  const VecX &xa = a.cloths()[0]->x(), &xb = b.cloths()[0]->x();
+  const double largest = solvers::max_vertex_distance(xa, xb) / h;
+  const double rms = (xa - xb).norm() / std::sqrt(static_cast<double>(xa.size() / 3)) / h;
+  ASSERT_GT(largest, 1e-5) << "a step stopped at 1e-1 is measurably off";
+  EXPECT_NEAR(sa[0].true_velocity_error, largest, 1e-3 * largest);
+  EXPECT_NEAR(sa[0].true_velocity_rms, rms, 1e-3 * rms);
+  EXPECT_TRUE(std::isnan(sb[0].true_velocity_error)) << "off unless asked for";
+}
+
 TEST(Simulation, ResumeReproducesAnUninterruptedRun) {
   const fs::path root = fs::temp_directory_path() / ("mgcloth_resume_test_" + std::to_string(::getpid()));
   fs::remove_all(root);

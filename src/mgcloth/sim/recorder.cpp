@@ -172,7 +172,8 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 
 std::string Recorder::stats_header() {
   return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
-         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap,velocity_error";
+         "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap,velocity_error,"
+         "true_velocity_error,true_velocity_rms";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
@@ -185,10 +186,12 @@ std::string Recorder::stats_row(const StepStats& s) {
   const std::string gap = std::isnan(s.seam_gap) ? "" : fmt::format("{:.6g}", s.seam_gap);
   // Infinite where no estimate was possible (fewer than three moving iterations, steps that did not contract).
   const std::string verr = std::isnan(s.velocity_error) ? "" : fmt::format("{:.3e}", s.velocity_error);
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
+  const auto checked = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3e}", v); };
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
-                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap, verr);
+                     pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap, verr,
+                     checked(s.true_velocity_error), checked(s.true_velocity_rms));
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

@@ -44,6 +44,11 @@ struct StepStats {
   /// The solver's estimate of the largest per-vertex velocity error of the step's end (SolveReport::step_error / h),
   /// m/s, whatever the stop rule; infinite where no estimate was possible, NaN where the solver makes none.
   double velocity_error = std::numeric_limits<double>::quiet_NaN();
+  /// With Simulator::set_accuracy_check: the distance of the step's result to the minimizer of its objective, as
+  /// velocities (m/s): the largest per vertex and the vertices' root mean square (NaN: not checked, or the check's
+  /// solve did not converge).
+  double true_velocity_error = std::numeric_limits<double>::quiet_NaN();
+  double true_velocity_rms = std::numeric_limits<double>::quiet_NaN();
   solvers::Trace trace;  ///< per-iteration trace, when the simulator records traces
   /// Shells: the load factor of the step (static runs; 1 in dynamic runs) and the probes after the step.
   double load_factor = 1.0;
@@ -118,6 +123,15 @@ class Simulator {
   std::vector<StepStats> step();
   /// Keep the solver's per-iteration trace (energy, gradient norm, wall time) in every StepStats.
   void set_record_trace(bool on) { m_record_trace = on; }
+  /// Measures every step's accuracy (StepStats::true_velocity_error): after the solve, Newton + CHOLMOD goes on from
+  /// its result to a gradient 1e-8 of the one the step started with, and the distance between the two is the
+  /// error the solver's stop rule left. Each step is compared with its own minimizer, so stop rules can be compared
+  /// on scenes whose trajectories part (contact, sliding). The check's solver is a separate object, so the step's
+  /// solver carries on as it would have; what the two share is the objective's caches (cloth contact's near pairs),
+  /// which can change later steps by round-off. The check minimizes the objective without the obstacles'
+  /// feasibility projection, so in contact with analytic obstacles it reads the projection's moves too. Costs a
+  /// Newton solve per step.
+  void set_accuracy_check(bool on);
 
   /// Scripted animation between frames (the Python module): cloth c's pins pull towards `targets` (its
   /// pinned_vertices() order), reached at the end of the next frame, moving linearly from where they pull now; the
@@ -156,6 +170,10 @@ class Simulator {
   int m_frame = 0;
   long m_step = 0;
   bool m_record_trace = false;
+  /// set_accuracy_check's solvers, one per group (empty: off).
+  std::vector<std::unique_ptr<solvers::NonlinearSolver>> m_checkers;
+  /// Fills s.true_velocity_error and s.true_velocity_rms for group g's step result x (set_accuracy_check).
+  void check_accuracy(size_t g, const solvers::Problem& problem, const VecX& x, double h, StepStats& s);
 };
 
 }  // namespace mgcloth::sim
