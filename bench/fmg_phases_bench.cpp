@@ -238,6 +238,12 @@ int main(int argc, char** argv) {
                 bench::best_ms(repeat, [&] { gs.set_matrix(Al); }), pass_bytes(Al, 0.0) + gs.pass_bytes() - 72.0 * Al.rows());
         }
         add(fmt::format("level {} product A x", l), bench::best_ms(repeat, [&] { Al.multiply(bl, yl); }), matvec_bytes(Al));
+        {
+          linalg::MultiColorGaussSeidel gs(Al);
+          gs.set_matrix(Al);
+          add(fmt::format("level {} product A x from the smoother's copy", l), bench::best_ms(repeat, [&] { gs.multiply(bl, yl); }),
+              gs.pass_bytes() + 72.0 * Al.rows());
+        }
       }
       VecX xv;
       add("V-cycle (linear, from zero)", bench::best_ms(repeat, [&] { xv.setZero(b.size()); mg.vcycle(0, b, xv); }), vcycle_bytes);
@@ -252,7 +258,23 @@ int main(int argc, char** argv) {
       add("  of which: zeroing the matrix", bench::best_ms(repeat, [&] { H.set_zero(); }), 76.0 * H.num_blocks());
       for (const auto& term : obj.terms())
         add(fmt::format("  of which: {} Hessian", term->name()), bench::best_ms(repeat, [&] { term->add_hessian(x, H, true); }), 0.0);
+      {
+        linalg::BlockMatrix3 Hc;
+        physics::Objective::ConstantHessian cache;
+        obj.hessian_reusing_constant(x, Hc, true, cache);
+        add("Hessian assembly reusing the constant blocks", bench::best_ms(repeat, [&] { obj.hessian_reusing_constant(x, Hc, true, cache); }),
+            76.0 * static_cast<double>(obj.variable_blocks().size()));
+      }
       add("Galerkin update, smoother diagonals, coarsest factorization", bench::best_ms(repeat, [&] { mg.set_matrix(A); }), 0.0);
+      {
+        solvers::LinearMultigrid split(prolongations, obj.hessian_pattern(), fmg_defaults.multigrid);
+        split.set_matrix(A, &obj.constant_blocks(), obj.pattern_stamp());
+        split.set_matrix(A, &obj.constant_blocks(), obj.pattern_stamp());
+        add("the same with the constant blocks summed once", bench::best_ms(repeat, [&] {
+              split.set_matrix(A, &obj.constant_blocks(), obj.pattern_stamp());
+            }),
+            0.0);
+      }
       double galerkin_bytes = 0.0;
       for (Index l = 0; l + 1 < L; ++l)
         galerkin_bytes += 76.0 * (mg.matrix(l).num_blocks() + mg.matrix(l + 1).num_blocks());
@@ -265,6 +287,12 @@ int main(int argc, char** argv) {
               for (Index l = 0; l + 1 < L; ++l) raps[static_cast<size_t>(l)].compute(mg.matrix(l), coarse[static_cast<size_t>(l + 1)]);
             }),
             galerkin_bytes);
+        add("  of which level 0 to 1", bench::best_ms(repeat, [&] { raps[0].compute(A, coarse[1]); }),
+            76.0 * (A.num_blocks() + mg.matrix(1).num_blocks()));
+        raps[0].set_constant_blocks(obj.constant_blocks());
+        raps[0].compute_constant(A);
+        add("  level 0 to 1 with the constant blocks summed once", bench::best_ms(repeat, [&] { raps[0].compute(A, coarse[1]); }),
+            76.0 * (static_cast<double>(obj.variable_blocks().size()) + 2.0 * mg.matrix(1).num_blocks()));
       }
       VecX g;
       add("gradient", bench::best_ms(repeat, [&] { obj.gradient(x, g); }), 0.0);

@@ -1,9 +1,11 @@
+#include <mgcloth/core/error.hpp>
 #include <mgcloth/linalg/galerkin.hpp>
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
 
+#include <cstdlib>
 #include <random>
 
 using namespace mgcloth;
@@ -113,4 +115,67 @@ TEST(Galerkin, CoarseOperatorOfAnSpdMatrixIsSymmetricPositiveDefinite) {
   EXPECT_LT((Cd - Cd.transpose()).norm(), 1e-12 * Cd.norm());
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Cd);
   EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0);
+}
+
+TEST(Galerkin, ConstantBlocksSummedOnceGiveTheSameProduct) {
+  // A 1D chain with a wider stencil; every block at distance 2 is constant. After compute_constant, new values of
+  // the other blocks must give the product of the whole new matrix; new constant values need compute_constant.
+  const Index nf = 60, nc = 20;
+  std::vector<std::pair<Index, Index>> pairs;
+  for (Index i = 0; i + 1 < nf; ++i) pairs.emplace_back(i, i + 1);
+  for (Index i = 0; i + 2 < nf; ++i) pairs.emplace_back(i, i + 2);
+  BlockMatrix3 A(nf, pairs);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const auto fill = [&](BlockMatrix3& M, bool variable, bool constant) {
+    for (Index r = 0; r < nf; ++r)
+      for (Index k = M.row_offsets()[r]; k < M.row_offsets()[r + 1]; ++k) {
+        const Index c = M.col_indices()[k];
+        const bool is_constant = std::abs(c - r) == 2;
+        if (c < r || (is_constant ? !constant : !variable)) continue;
+        Mat3 b;
+        for (int q = 0; q < 9; ++q) b.data()[q] = u(rng);
+        M.block(k) = b;
+        M.block(M.find(c, r)) = b.transpose();
+      }
+  };
+  fill(A, true, true);
+  std::vector<char> constant(static_cast<size_t>(A.num_blocks()), 0);
+  for (Index r = 0; r < nf; ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) constant[k] = std::abs(A.col_indices()[k] - r) == 2;
+  std::vector<Index> po{0}, pi;
+  std::vector<double> pw;
+  for (Index i = 0; i < nf; ++i) {  // linear interpolation between every third vertex
+    const Index c = std::min<Index>(i / 3, nc - 1), c2 = std::min<Index>(c + 1, nc - 1);
+    pi.push_back(c);
+    pw.push_back(c2 == c ? 1.0 : 1.0 - (i % 3) / 3.0);
+    if (c2 != c && i % 3 != 0) {
+      pi.push_back(c2);
+      pw.push_back((i % 3) / 3.0);
+    }
+    po.push_back(static_cast<Index>(pi.size()));
+  }
+  GalerkinProduct plain(A, nc, po, pi, pw), split(A, nc, po, pi, pw);
+  split.set_constant_blocks(constant);
+  BlockMatrix3 Ac;
+  EXPECT_THROW(split.compute(A, Ac), Error);  // the constant share not summed yet
+  split.compute_constant(A);
+  const auto agree = [&](const BlockMatrix3& M) {
+    BlockMatrix3 P, S;
+    plain.compute(M, P);
+    split.compute(M, S);
+    const Eigen::MatrixXd p(P.to_sparse()), s(S.to_sparse());
+    return (p - s).norm() <= 1e-13 * p.norm();
+  };
+  EXPECT_TRUE(agree(A));
+  for (int round = 0; round < 2; ++round) {
+    fill(A, true, false);
+    EXPECT_TRUE(agree(A)) << "round " << round;
+  }
+  fill(A, false, true);
+  split.compute_constant(A);
+  EXPECT_TRUE(agree(A));
+  split.clear_constant_blocks();
+  fill(A, true, true);
+  EXPECT_TRUE(agree(A));
 }

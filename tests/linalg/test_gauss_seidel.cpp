@@ -267,3 +267,60 @@ TEST(GaussSeidel, ColorOrderedCopyFollowsNewValuesAndPatterns) {
     EXPECT_LE((x - y).norm(), 1e-14 * y.norm());
   }
 }
+
+TEST(GaussSeidel, ProductFromTheCopyIsTheMatrixProduct) {
+  // The copy stores scalar blocks as one number and full blocks apart; its product must still be A x, for either
+  // kind of block and after new values.
+  const BlockMatrix3 A = grid_spd(8, 21), B = grid_spd_full_blocks(8, 22);
+  MultiColorGaussSeidel gs(A);
+  std::srand(5);
+  for (const BlockMatrix3* M : {&A, &B, &A}) {
+    gs.set_matrix(*M);
+    ASSERT_TRUE(gs.can_multiply());
+    const VecX x = VecX::Random(3 * M->rows());
+    VecX y;
+    gs.multiply(x, y);
+    const VecX reference = *M * x;
+    EXPECT_LE((y - reference).norm(), 1e-14 * reference.norm());
+  }
+  MultiColorGaussSeidel single(A, MultiColorGaussSeidel::Precision::Single);
+  single.set_matrix(A);
+  EXPECT_FALSE(single.can_multiply());
+}
+
+TEST(GaussSeidel, ConstantBlocksKeptFromTheLastCopyGiveTheFreshSmoother) {
+  // Half of the off-diagonal blocks are declared constant; new values change only the others (and the diagonal).
+  // A smoother that keeps the constant blocks from its copy must then smooth as a fresh one does; a new version
+  // makes it read them again.
+  BlockMatrix3 A = grid_spd_full_blocks(7, 31);
+  std::vector<char> constant(static_cast<size_t>(A.num_blocks()), 0);
+  for (Index r = 0; r < A.rows(); ++r)
+    for (Index k = A.row_offsets()[r]; k < A.row_offsets()[r + 1]; ++k) {
+      const Index c = A.col_indices()[k];
+      if (c != r && (std::min(r, c) + std::max(r, c)) % 2 == 0) constant[k] = 1;  // symmetric choice
+    }
+  MultiColorGaussSeidel gs(A);
+  gs.set_matrix(A, &constant, 7);
+  std::srand(6);
+  for (int round = 0; round < 3; ++round) {
+    BlockMatrix3 B = A;
+    for (Index r = 0; r < B.rows(); ++r)
+      for (Index k = B.row_offsets()[r]; k < B.row_offsets()[r + 1]; ++k)
+        if (!constant[k]) B.block(k) *= 1.0 + 0.1 * (round + 1);
+    const long version = round < 2 ? 7 : 8;
+    if (round == 2)  // the promise for version 8: its constant blocks are new
+      for (Index k = 0; k < B.num_blocks(); ++k)
+        if (constant[k]) B.block(k) *= 0.5;
+    gs.set_matrix(B, &constant, version);
+    MultiColorGaussSeidel fresh(B);
+    fresh.set_matrix(B);
+    const VecX b = VecX::Random(3 * B.rows());
+    VecX x = VecX::Zero(b.size()), y = x;
+    gs.symmetric_sweeps(b, x, 2);
+    fresh.symmetric_sweeps(b, y, 2);
+    EXPECT_LE((x - y).norm(), 1e-14 * y.norm()) << "round " << round;
+    VecX p, q = B * b;
+    gs.multiply(b, p);
+    EXPECT_LE((p - q).norm(), 1e-14 * q.norm()) << "round " << round;
+  }
+}

@@ -3,6 +3,8 @@
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/bending.hpp>
+#include <mgcloth/physics/membrane.hpp>
+#include <mgcloth/physics/objective.hpp>
 
 #include "term_checks.hpp"
 
@@ -224,4 +226,52 @@ TEST(IsometricBending, AStripOneCellWideFallsBackToBisectorSlopesThatAreExactAlo
   EXPECT_NEAR(energy / (0.5 * kappa * kappa * area), 1.0, 1e-2);  // 0.996: the circle is a quadratic to (κh)² = 0.02
   EXPECT_LT(term.value(flat), 1e-20);
   check_term(term, bent);
+}
+
+TEST(IsometricBending, ObjectiveAssemblesItsConstantHessianOncePerPattern) {
+  // Membrane (whose Hessian moves with x) plus the constant quadratic bending: the blocks only bending reaches are
+  // flagged constant and keep their value at every x; hessian_reusing_constant gives hessian()'s matrix at each x,
+  // on regular and unstructured meshes, and a cache carried over to another objective is not trusted.
+  for (bool unstructured : {false, true}) {
+    const mesh::TriMesh m = sheet(unstructured, 400);
+    const mesh::Topology topo = mesh::build_topology(m);
+    const auto make = [&](double kb) {
+      Material mat;
+      mat.bending_stiffness = kb;
+      auto obj = std::make_unique<Objective>(m.num_vertices());
+      obj->add(std::make_unique<StVKMembrane>(m, mat));
+      obj->add(std::make_unique<IsometricBending>(m, topo, mat));
+      obj->finalize();
+      return obj;
+    };
+    const auto obj = make(5e-6), other = make(2e-5);
+    const auto& constant = obj->constant_blocks();
+    const long flagged = std::count(constant.begin(), constant.end(), 1);
+    // Beyond the one-ring: most of the blocks (three quarters on these meshes).
+    EXPECT_GT(flagged, obj->hessian_pattern().num_blocks() / 2);
+    EXPECT_EQ(obj->variable_blocks().size() + static_cast<size_t>(flagged), constant.size());
+    std::mt19937_64 rng(unstructured ? 3 : 4);
+    std::normal_distribution<double> noise(0.0, 0.01);
+    VecX x0(3 * m.num_vertices());
+    for (Index i = 0; i < m.num_vertices(); ++i) x0.segment<3>(3 * i) = m.x.col(i);
+    linalg::BlockMatrix3 H, reference, first;
+    Objective::ConstantHessian cache;
+    for (int round = 0; round < 4; ++round) {
+      const Objective& o = round == 2 ? *other : *obj;
+      VecX x = x0;
+      for (Index i = 0; i < x.size(); ++i) x[i] += noise(rng);
+      o.hessian_reusing_constant(x, H, true, cache);
+      o.hessian(x, reference, true);
+      const Eigen::MatrixXd a(H.to_sparse()), b(reference.to_sparse());
+      EXPECT_LE((a - b).norm(), 1e-12 * b.norm()) << "round " << round << (unstructured ? " unstructured" : "");
+      if (round == 0) first = reference;
+      if (round == 1) {
+        for (Index k = 0; k < reference.num_blocks(); ++k) {
+          if (constant[k]) {
+            ASSERT_EQ(reference.block(k), first.block(k)) << "block " << k;
+          }
+        }
+      }
+    }
+  }
 }

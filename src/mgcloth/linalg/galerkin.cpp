@@ -79,11 +79,63 @@ GalerkinProduct::GalerkinProduct(const BlockMatrix3& A, Index nc, const std::vec
 void GalerkinProduct::compute(const BlockMatrix3& A, BlockMatrix3& coarse) const {
   if (A.num_blocks() != m_fine_blocks) throw Error("Galerkin: matrix pattern differs from the one analysed");
   if (!coarse.same_pattern(m_coarse)) coarse = m_coarse;
+  if (has_constant_blocks()) {
+    if (!m_constant_ready) throw Error("Galerkin: constant blocks set but their share not computed");
+    parallel_for(m_coarse.num_blocks(), [&](Index c) {
+      Mat3 s = m_constant[c];
+      for (Index t = m_variable_offsets[c]; t < m_variable_offsets[c + 1]; ++t)
+        s.noalias() += m_variable_terms[t].weight * A.block(m_variable_terms[t].fine_block);
+      coarse.block(c) = s;
+    });
+    return;
+  }
   parallel_for(m_coarse.num_blocks(), [&](Index c) {
     Mat3 s = Mat3::Zero();
     for (Index t = m_offsets[c]; t < m_offsets[c + 1]; ++t) s.noalias() += m_terms[t].weight * A.block(m_terms[t].fine_block);
     coarse.block(c) = s;
   });
+}
+
+void GalerkinProduct::set_constant_blocks(const std::vector<char>& constant) {
+  if (static_cast<Index>(constant.size()) != m_fine_blocks)
+    throw Error(fmt::format("Galerkin: {} constant-block flags for {} fine blocks", constant.size(), m_fine_blocks));
+  const Index nc = m_coarse.num_blocks();
+  m_constant_flags = constant;
+  m_variable_offsets.assign(static_cast<size_t>(nc) + 1, 0);
+  parallel_for(nc, [&](Index c) {
+    Index n = 0;
+    for (Index t = m_offsets[c]; t < m_offsets[c + 1]; ++t) n += !constant[m_terms[t].fine_block];
+    m_variable_offsets[c + 1] = n;
+  });
+  for (Index c = 0; c < nc; ++c) m_variable_offsets[c + 1] += m_variable_offsets[c];
+  m_variable_terms.resize(static_cast<size_t>(m_variable_offsets.back()));
+  parallel_for(nc, [&](Index c) {
+    Index out = m_variable_offsets[c];
+    for (Index t = m_offsets[c]; t < m_offsets[c + 1]; ++t)
+      if (!constant[m_terms[t].fine_block]) m_variable_terms[out++] = m_terms[t];
+  });
+  m_constant.assign(static_cast<size_t>(nc), Mat3::Zero());
+  m_constant_ready = false;
+}
+
+void GalerkinProduct::compute_constant(const BlockMatrix3& A) {
+  if (!has_constant_blocks()) throw Error("Galerkin: compute_constant without constant blocks");
+  if (A.num_blocks() != m_fine_blocks) throw Error("Galerkin: matrix pattern differs from the one analysed");
+  parallel_for(m_coarse.num_blocks(), [&](Index c) {
+    Mat3 s = Mat3::Zero();
+    for (Index t = m_offsets[c]; t < m_offsets[c + 1]; ++t)
+      if (m_constant_flags[m_terms[t].fine_block]) s.noalias() += m_terms[t].weight * A.block(m_terms[t].fine_block);
+    m_constant[c] = s;
+  });
+  m_constant_ready = true;
+}
+
+void GalerkinProduct::clear_constant_blocks() {
+  m_variable_offsets.clear();
+  m_variable_terms.clear();
+  m_constant_flags.clear();
+  m_constant.clear();
+  m_constant_ready = false;
 }
 
 }  // namespace mgcloth::linalg

@@ -58,6 +58,8 @@ void MultiColorGaussSeidel::build_layout() {
   m_values.clear();
   m_values_single.clear();
   m_inv_diag.resize(m_rows.size());
+  m_diag.resize(m_rows.size());
+  m_constant_version = -1;
 }
 
 void MultiColorGaussSeidel::classify(const BlockMatrix3& A) {
@@ -89,7 +91,7 @@ void MultiColorGaussSeidel::classify(const BlockMatrix3& A) {
   m_classified = true;
 }
 
-bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A) {
+bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A, const std::vector<char>* skip) {
   const bool single = m_precision == Precision::Single;
   const auto& off = A.row_offsets();
   const auto& cols = A.col_indices();
@@ -101,6 +103,11 @@ bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A) {
     size_t f = m_value_offsets[i], s = f + 9 * static_cast<size_t>(m_full[i]);
     for (Index k = off[r]; k < off[r + 1]; ++k) {
       if (cols[k] == r) continue;
+      if (skip && (*skip)[k]) {
+        if (m_scalar[k]) ++s;
+        else f += 9;
+        continue;
+      }
       const Mat3& b = A.block(k);
       if (m_scalar[k]) {
         if (!is_scalar_block(b)) reclassify = true;
@@ -118,7 +125,8 @@ bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A) {
     // In single precision the diagonal is rounded too, so that the sweeps are exactly Gauss-Seidel on Ã. (Rounded
     // from the source: rounding a copy in place lost its first two entries' rounding under GCC 12 -O3.)
     Mat3 d;
-    const double* diag = A.block(A.diagonal(r)).data();
+    m_diag[i] = A.block(A.diagonal(r));
+    const double* diag = m_diag[i].data();
     for (int e = 0; e < 9; ++e) d.data()[e] = single ? static_cast<double>(static_cast<float>(diag[e])) : diag[e];
     bool ok = false;
     d.computeInverseWithCheck(m_inv_diag[i], ok);
@@ -128,19 +136,25 @@ bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A) {
   return !reclassify;
 }
 
-void MultiColorGaussSeidel::set_matrix(const BlockMatrix3& A) {
+void MultiColorGaussSeidel::set_matrix(const BlockMatrix3& A, const std::vector<char>* constant, long constant_version) {
   if (A.row_offsets() != m_pattern_offsets || A.col_indices() != m_pattern_cols) {
     m_colors = A.rows() > 0 ? color_rows(A) : std::vector<std::vector<Index>>{};
     m_pattern_offsets = A.row_offsets();
     m_pattern_cols = A.col_indices();
     build_layout();
   }
+  if (constant && constant->size() != m_pattern_cols.size())
+    throw Error(fmt::format("Gauss-Seidel: {} constant-block flags for {} blocks", constant->size(), m_pattern_cols.size()));
+  // Constant blocks are skipped only where the copy holds them in the present layout (the classification and
+  // version unchanged since they were copied).
+  const std::vector<char>* skip = constant && m_classified && m_constant_version == constant_version ? constant : nullptr;
   // The classification of the first values is kept while it holds (a scalar block that stopped being one redoes it;
   // a full block that became scalar just stays full), so that a new matrix usually costs one pass over A.
-  if (!m_classified || !copy_values(A)) {
+  if (!m_classified || !copy_values(A, skip)) {
     classify(A);
-    if (!copy_values(A)) throw Error("Gauss-Seidel: block classification changed during the copy");
+    if (!copy_values(A, nullptr)) throw Error("Gauss-Seidel: block classification changed during the copy");
   }
+  m_constant_version = constant ? constant_version : -1;
   m_ready = true;
 }
 
@@ -152,6 +166,35 @@ double MultiColorGaussSeidel::pass_bytes() const {
 }
 
 template <class T>
+inline void MultiColorGaussSeidel::offdiagonal_product(const T* values, Index i, const double* xd, double out[3]) const {
+  const T* v = values + m_value_offsets[i];
+  const Index* c = m_cols.data() + m_offsets[i];
+  const Index* full_end = c + m_full[i];
+  const Index* row_end = m_cols.data() + m_offsets[i + 1];
+  Pair s01 = {0.0, 0.0};
+  double s2 = 0.0;
+  for (; c != full_end; ++c, v += 9) {  // full blocks, column-major: rows 0-1 of each column as a pair
+    const double* xc = xd + 3 * *c;
+    const double x0 = xc[0], x1 = xc[1], x2 = xc[2];
+    s01 += load_pair(v) * x0 + load_pair(v + 3) * x1 + load_pair(v + 6) * x2;
+    s2 += double(v[2]) * x0 + double(v[5]) * x1 + double(v[8]) * x2;
+  }
+  Pair t01 = {0.0, 0.0};
+  double t2 = 0.0;
+  for (; c != row_end; ++c, ++v) {  // multiples of the identity
+    const double* xc = xd + 3 * *c;
+    const double a = double(*v);
+    t01 += a * load_pair(xc);
+    t2 += a * xc[2];
+  }
+  s01 += t01;
+  s2 += t2;
+  out[0] = s01[0];
+  out[1] = s01[1];
+  out[2] = s2;
+}
+
+template <class T>
 void MultiColorGaussSeidel::relax_rows(const T* values, Index begin, Index end, const VecX& b, VecX& x,
                                        const std::vector<char>* mask) const {
   double* xd = x.data();
@@ -160,32 +203,29 @@ void MultiColorGaussSeidel::relax_rows(const T* values, Index begin, Index end, 
     const Index i = begin + j;
     const Index r = m_rows[i];
     if (mask && !(*mask)[r]) return;
-    const T* v = values + m_value_offsets[i];
-    const Index* c = m_cols.data() + m_offsets[i];
-    const Index* full_end = c + m_full[i];
-    const Index* row_end = m_cols.data() + m_offsets[i + 1];
-    Pair s01 = load_pair(bd + 3 * r);
-    double s2 = bd[3 * r + 2];
-    for (; c != full_end; ++c, v += 9) {  // full blocks, column-major: rows 0-1 of each column as a pair
-      const double* xc = xd + 3 * *c;
-      const double x0 = xc[0], x1 = xc[1], x2 = xc[2];
-      s01 -= load_pair(v) * x0 + load_pair(v + 3) * x1 + load_pair(v + 6) * x2;
-      s2 -= double(v[2]) * x0 + double(v[5]) * x1 + double(v[8]) * x2;
-    }
-    Pair t01 = {0.0, 0.0};
-    double t2 = 0.0;
-    for (; c != row_end; ++c, ++v) {  // multiples of the identity
-      const double* xc = xd + 3 * *c;
-      const double a = double(*v);
-      t01 += a * load_pair(xc);
-      t2 += a * xc[2];
-    }
-    s01 -= t01;
-    s2 -= t2;
+    double t[3];
+    offdiagonal_product(values, i, xd, t);
+    const double s0 = bd[3 * r] - t[0], s1 = bd[3 * r + 1] - t[1], s2 = bd[3 * r + 2] - t[2];
     const Mat3& D = m_inv_diag[i];
-    xd[3 * r] = D(0, 0) * s01[0] + D(0, 1) * s01[1] + D(0, 2) * s2;
-    xd[3 * r + 1] = D(1, 0) * s01[0] + D(1, 1) * s01[1] + D(1, 2) * s2;
-    xd[3 * r + 2] = D(2, 0) * s01[0] + D(2, 1) * s01[1] + D(2, 2) * s2;
+    xd[3 * r] = D(0, 0) * s0 + D(0, 1) * s1 + D(0, 2) * s2;
+    xd[3 * r + 1] = D(1, 0) * s0 + D(1, 1) * s1 + D(1, 2) * s2;
+    xd[3 * r + 2] = D(2, 0) * s0 + D(2, 1) * s1 + D(2, 2) * s2;
+  });
+}
+
+void MultiColorGaussSeidel::multiply(const VecX& x, VecX& y) const {
+  if (!can_multiply()) throw Error("Gauss-Seidel: multiply needs a double-precision copy of a matrix");
+  y.resize(x.size());
+  const double* xd = x.data();
+  double* yd = y.data();
+  parallel_for(static_cast<Index>(m_rows.size()), [&](Index i) {
+    const Index r = m_rows[i];
+    double t[3];
+    offdiagonal_product(m_values.data(), i, xd, t);
+    const Vec3 d = m_diag[i] * Vec3(xd[3 * r], xd[3 * r + 1], xd[3 * r + 2]);
+    yd[3 * r] = d[0] + t[0];
+    yd[3 * r + 1] = d[1] + t[1];
+    yd[3 * r + 2] = d[2] + t[2];
   });
 }
 

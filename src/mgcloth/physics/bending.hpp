@@ -71,6 +71,7 @@ class IsometricBending final : public Term {
   double value(const VecX& x) const override;
   void add_gradient(const VecX& x, VecX& g) const override;
   void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const override;
+  bool hessian_is_constant() const override { return true; }
   void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override;
   void bind(const linalg::BlockMatrix3& pattern) override;
   /// K, symmetric, both triangles stored.
@@ -94,6 +95,7 @@ class QuadraticBending final : public ElementTerm<4> {
   QuadraticBending(const mesh::TriMesh& mesh, const mesh::Topology& topology, const Material& material);
   std::string name() const override { return "bending_quadratic"; }
   double element(Index e, const Local& xe, Local* g, LocalHessian* H) const override;
+  bool hessian_is_constant() const override { return true; }
   /// The Hessian is constant and PSD already: no projection.
   void element_psd_hessian(Index e, const Local& xe, LocalHessian& H) const override {
     Local g;

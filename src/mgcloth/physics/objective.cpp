@@ -1,7 +1,9 @@
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/parallel.hpp>
 #include <mgcloth/physics/objective.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -10,10 +12,31 @@ namespace mgcloth::physics {
 
 void Objective::build_pattern() const {
   std::vector<std::pair<Index, Index>> pairs;
-  for (const auto& t : m_terms) t->collect_pattern(pairs);
+  // The variable terms' pairs first, so that the blocks they reach can be told from the constant terms' ones.
+  for (const auto& t : m_terms)
+    if (!t->hessian_is_constant()) t->collect_pattern(pairs);
+  const size_t variable_pairs = pairs.size();
+  for (const auto& t : m_terms)
+    if (t->hessian_is_constant()) t->collect_pattern(pairs);
+  const bool any_constant = pairs.size() > variable_pairs;
+  std::vector<std::pair<Index, Index>> variable;
+  if (any_constant) variable.assign(pairs.begin(), pairs.begin() + static_cast<std::ptrdiff_t>(variable_pairs));
   m_pattern = linalg::BlockMatrix3(m_n, std::move(pairs));
+  m_constant_blocks.assign(static_cast<size_t>(m_pattern.num_blocks()), any_constant ? 1 : 0);
+  if (any_constant) {
+    for (Index r = 0; r < m_n; ++r) m_constant_blocks[m_pattern.diagonal(r)] = 0;
+    for (const auto& [r, c] : variable) {
+      m_constant_blocks[m_pattern.find(r, c)] = 0;
+      m_constant_blocks[m_pattern.find(c, r)] = 0;
+    }
+  }
+  m_variable_blocks.clear();
+  for (Index k = 0; k < m_pattern.num_blocks(); ++k)
+    if (!m_constant_blocks[k]) m_variable_blocks.push_back(k);
   for (const auto& t : m_terms) t->bind(m_pattern);
   ++m_pattern_version;
+  static std::atomic<long> stamps{0};
+  m_pattern_stamp = ++stamps;
 }
 
 void Objective::finalize() {
@@ -49,6 +72,27 @@ void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd
   if (!H.same_pattern(m_pattern)) H = m_pattern;
   H.set_zero();
   for (const auto& t : m_terms) t->add_hessian(x, H, project_psd);
+}
+
+void Objective::hessian_reusing_constant(const VecX& x, linalg::BlockMatrix3& H, bool project_psd,
+                                         ConstantHessian& cache) const {
+  update_stencils(x);
+  const bool fresh = !H.same_pattern(m_pattern) || cache.version != m_pattern_stamp || cache.project_psd != project_psd;
+  if (!H.same_pattern(m_pattern)) H = m_pattern;
+  const Index nv = static_cast<Index>(m_variable_blocks.size());
+  if (fresh) {
+    H.set_zero();
+    for (const auto& t : m_terms)
+      if (t->hessian_is_constant()) t->add_hessian(x, H, project_psd);
+    cache.values.resize(static_cast<size_t>(nv));
+    parallel_for(nv, [&](Index j) { cache.values[j] = H.block(m_variable_blocks[j]); }, 4096);
+    cache.version = m_pattern_stamp;
+    cache.project_psd = project_psd;
+  } else {
+    parallel_for(nv, [&](Index j) { H.block(m_variable_blocks[j]) = cache.values[j]; }, 4096);
+  }
+  for (const auto& t : m_terms)
+    if (!t->hessian_is_constant()) t->add_hessian(x, H, project_psd);
 }
 
 double Objective::max_step(const VecX& x, const VecX& d, double alpha_max) const {

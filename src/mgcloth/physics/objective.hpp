@@ -33,6 +33,24 @@ class Objective {
   /// Assembles into H (given this objective's pattern first if it has another one). Asks the terms to update
   /// their stencils at x first (update_stencils).
   void hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd = true) const;
+  /// What hessian_reusing_constant() keeps per matrix: the constant terms' share of the blocks that other terms add
+  /// to, and the pattern stamp and projection flag it was assembled for.
+  struct ConstantHessian {
+    long version = -1;
+    bool project_psd = false;
+    std::vector<Mat3> values;  ///< per variable block (variable_blocks())
+  };
+  /// As hessian(), for a matrix H that only hessian() and this function of this objective have written since the
+  /// `cache`'s last use (one cache per matrix): terms whose Hessian is constant (Term::hessian_is_constant) are
+  /// assembled once per pattern; afterwards the constant blocks keep their values and the variable blocks start
+  /// from the cached constant share. Sums run in another order than hessian()'s: the two agree to round-off.
+  void hessian_reusing_constant(const VecX& x, linalg::BlockMatrix3& H, bool project_psd, ConstantHessian& cache) const;
+  /// Per block of the pattern: 1 where only terms with a constant Hessian add to it, so that its value is the same
+  /// at every x (the quadratic bending model's couplings beyond the membrane's one-ring). All 0 when no term is
+  /// constant. Valid for the current pattern_stamp().
+  const std::vector<char>& constant_blocks() const { return m_constant_blocks; }
+  /// The blocks that are not constant, ascending.
+  const std::vector<Index>& variable_blocks() const { return m_variable_blocks; }
   /// Lets every term update its stencils at x; rebuilds the pattern (and rebinds the terms) when one changed.
   /// Returns whether the pattern changed. The pattern is a cache of the terms' stencils, hence const.
   bool update_stencils(const VecX& x) const;
@@ -43,6 +61,9 @@ class Objective {
   bool limits_steps() const;
   /// How many times the pattern was built (finalize() makes it 1); users of the pattern rebuild when it moves.
   long pattern_version() const { return m_pattern_version; }
+  /// Unique over all objectives of the process and all their pattern builds: what caches of the constant blocks'
+  /// values (which another objective with the same pattern would not share) are keyed by.
+  long pattern_stamp() const { return m_pattern_stamp; }
   /// An empty matrix with the pattern, to be filled by hessian().
   const linalg::BlockMatrix3& hessian_pattern() const;
   /// Values of each term, for diagnostics and statistics.
@@ -57,6 +78,9 @@ class Objective {
   std::vector<std::unique_ptr<Term>> m_terms;
   mutable linalg::BlockMatrix3 m_pattern;
   mutable long m_pattern_version = 0;
+  mutable long m_pattern_stamp = 0;
+  mutable std::vector<char> m_constant_blocks;
+  mutable std::vector<Index> m_variable_blocks;
   bool m_finalized = false;
 };
 

@@ -19,6 +19,9 @@ class Term {
   /// Adds this term's Hessian into H (whose pattern contains this term's stencils); each element block is
   /// projected to be positive semi-definite when asked.
   virtual void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const = 0;
+  /// Whether add_hessian adds the same values at every x (with either project_psd): the quadratic bending models.
+  /// The objective then assembles this term's share once per pattern (Objective::hessian_reusing_constant).
+  virtual bool hessian_is_constant() const { return false; }
   /// The (row, col) vertex pairs this term couples, for building the Hessian pattern once.
   virtual void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const = 0;
   /// Called once the global pattern exists (and again whenever it is rebuilt), so that scatter maps are computed

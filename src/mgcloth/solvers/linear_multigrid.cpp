@@ -34,14 +34,32 @@ void LinearMultigrid::build_symbolic(const linalg::BlockMatrix3& fine_pattern) {
 
 const linalg::BlockMatrix3& LinearMultigrid::matrix(Index l) const { return l == 0 ? *m_fine : m_levels[l].A; }
 
-void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
+void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A, const std::vector<char>* constant, long constant_version) {
   // A fine pattern other than the one the hierarchy was built for (contact stencils appeared or disappeared):
   // colorings, Galerkin maps and coarse patterns are redone; the coarsest factorization re-analyses by itself.
-  if (A.row_offsets() != m_fine_offsets || A.col_indices() != m_fine_cols) build_symbolic(A);
+  const bool rebuilt = A.row_offsets() != m_fine_offsets || A.col_indices() != m_fine_cols;
+  if (rebuilt) {
+    build_symbolic(A);
+    m_constant_version = -1;
+  }
   m_fine = &A;
+  if (m_levels.size() > 1) {
+    // The constant blocks' share of A_1 is summed on the second matrix of a pattern, not the first: where contact
+    // changes the pattern at every matrix, summing it apart would only add a pass.
+    linalg::GalerkinProduct& rap = m_levels[0].rap;
+    if (!constant) {
+      if (rap.has_constant_blocks()) rap.clear_constant_blocks();
+      m_constant_version = -1;
+    } else if (!rebuilt && m_constant_version != constant_version) {
+      rap.set_constant_blocks(*constant);
+      rap.compute_constant(A);
+      m_constant_version = constant_version;
+    }
+  }
   for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
     const auto& Al = matrix(static_cast<Index>(l));
-    m_levels[l].smoother.set_matrix(Al);
+    if (l == 0) m_levels[l].smoother.set_matrix(Al, constant, constant_version);
+    else m_levels[l].smoother.set_matrix(Al);
     if (m_params.chebyshev && m_levels[l].rho == 0.0)
       m_levels[l].rho = linalg::estimate_gauss_seidel_rho(Al, m_levels[l].smoother);
     m_levels[l].rap.compute(Al, m_levels[l + 1].A);  // Wang 2018 §3.1: A_{h+1} = Iᵀ A_h I
@@ -54,6 +72,12 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A) {
   } else if (!m_coarse_solver.factorize(matrix(last))) {
     throw SolveError("multigrid: the coarsest Galerkin matrix is not positive definite");
   }
+}
+
+void LinearMultigrid::multiply(Index l, const VecX& x, VecX& y) const {
+  const bool has_smoother = l + 1 < num_levels() || !m_params.factorize_coarsest;
+  if (has_smoother && m_levels[l].smoother.can_multiply()) m_levels[l].smoother.multiply(x, y);
+  else matrix(l).multiply(x, y);
 }
 
 std::vector<double> LinearMultigrid::smoother_rhos() const {
@@ -88,14 +112,24 @@ void LinearMultigrid::cycle(Index l, const VecX& b, VecX& x) const {
     m_rows_total += 2.0 * sweeps * static_cast<double>(n);
     return &mask;
   };
-  smooth(l, b, x, m_params.pre_smooth, adaptive ? masked(x.isZero(0.0) ? b : VecX(b - A * x), m_params.pre_smooth) : nullptr);
-  const VecX r = b - A * x;
+  VecX r;
+  if (adaptive && !x.isZero(0.0)) {
+    multiply(l, x, r);
+    r = b - r;
+  }
+  smooth(l, b, x, m_params.pre_smooth, adaptive ? masked(x.isZero(0.0) ? b : r, m_params.pre_smooth) : nullptr);
+  multiply(l, x, r);
+  r = b - r;
   VecX rc, ec = VecX::Zero(3 * matrix(l + 1).rows()), correction;
   m_p[l]->apply_transpose(r, rc);
   cycle(l + 1, rc, ec);
   m_p[l]->apply(ec, correction);
   x += correction;
-  smooth(l, b, x, m_params.post_smooth, adaptive ? masked(VecX(b - A * x), m_params.post_smooth) : nullptr);
+  if (adaptive) {
+    multiply(l, x, r);
+    r = b - r;
+  }
+  smooth(l, b, x, m_params.post_smooth, adaptive ? masked(r, m_params.post_smooth) : nullptr);
 }
 
 void LinearMultigrid::smooth(Index l, const VecX& b, VecX& x, int sweeps, const std::vector<char>* mask) const {

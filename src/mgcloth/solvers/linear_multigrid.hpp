@@ -37,7 +37,13 @@ class LinearMultigrid {
                   MultigridParams params = {});
 
   /// New level-0 values: recomputes the coarse operators, smoother diagonals and the coarsest factorization.
-  void set_matrix(const linalg::BlockMatrix3& A);
+  /// `constant` (per block of A): blocks whose values are the same in every matrix given with the same
+  /// `constant_version` (physics::Objective::constant_blocks); the level-0 smoother's copy and the first Galerkin
+  /// product then leave them out of the per-matrix work. The caller must keep the promise: results are wrong
+  /// otherwise.
+  void set_matrix(const linalg::BlockMatrix3& A, const std::vector<char>* constant = nullptr, long constant_version = 0);
+  /// y = A_l x: from the level's smoother copy where it has one in double precision (fewer bytes), else A_l's.
+  void multiply(Index l, const VecX& x, VecX& y) const;
   /// One V-cycle for A x = b, improving x in place.
   void vcycle(const VecX& b, VecX& x) const;
   /// z = M⁻¹ r: one V-cycle from zero (a symmetric positive definite operator when pre = post smoothing).
@@ -105,6 +111,7 @@ class LinearMultigrid {
   const linalg::BlockMatrix3* m_fine = nullptr;
   std::vector<Index> m_fine_offsets, m_fine_cols;  ///< the fine pattern the symbolic part was built for
   int m_symbolic_builds = 0;
+  long m_constant_version = -1;  ///< the version whose constant blocks level 0's Galerkin product has summed
   linalg::CholmodSolver m_coarse_solver;
   MultigridParams m_params;
 };

@@ -100,14 +100,23 @@ class NonlinearFMG::Backend final : public CpuVectors {
       logger().debug("{}: constant matrix {}{}", f.m_name, changed ? "changed" : "unchanged", restored ? " (restored)" : "");
       if (!changed && !restored) return false;  // e.g. the same contact set: keep the hierarchy and its factors
     } else {
-      m_obj.hessian(x, f.m_A, f.m_params.project_psd);
+      m_obj.hessian_reusing_constant(x, f.m_A, f.m_params.project_psd, f.m_constant);
       st.assembly_ms += t.ms();
     }
     Timer tg;
-    m_mg.set_matrix(f.m_A);
+    // The constant blocks are promised only for matrices that hessian_reusing_constant filled.
+    const bool split = f.m_params.matrix_update != MatrixUpdate::Constant &&
+                       m_obj.variable_blocks().size() < m_obj.constant_blocks().size();
+    if (split) m_mg.set_matrix(f.m_A, &m_obj.constant_blocks(), m_obj.pattern_stamp());
+    else m_mg.set_matrix(f.m_A);
     st.galerkin_ms += tg.ms();
     f.m_have_matrix = true;
     return changed;
+  }
+
+  void multiply(Vec in, Vec out) override {
+    if (!m_fmg.m_have_matrix) throw_error("multiply: this solve has no model matrix");
+    m_mg.multiply(0, (*this)[in], (*this)[out]);
   }
 
   double correction(Index level, bool linear, int sweeps, Vec rv, Vec dv) override {
@@ -163,7 +172,7 @@ class NonlinearFMG::Backend final : public CpuVectors {
     for (int it = 0; it < 30; ++it) {
       if (m_fmg.m_params.single_level) m_mg.smooth(0, r, c, 20);  // no coarse levels to cycle through
       else m_mg.vcycle(r, c);
-      m_fmg.m_A.multiply(c, Ac);
+      m_mg.multiply(0, c, Ac);
       if ((r - Ac).norm() <= tol) break;
     }
   }

@@ -102,6 +102,7 @@ class NonlinearFMG final : public NonlinearSolver {
   std::unique_ptr<LinearMultigrid> m_mg;
   std::vector<const linalg::StencilTable*> m_mg_for;
   linalg::BlockMatrix3 m_A, m_scratch;
+  physics::Objective::ConstantHessian m_constant;  ///< m_A's constant blocks (Objective::hessian_reusing_constant)
   bool m_have_matrix = false;
   std::vector<double> m_beta;  ///< per level: accepted step / model step, to start the next line search (§4.2.3)
   /// restore_carried_state() for the next minimize(), applied once its multigrid exists.
