@@ -59,7 +59,6 @@ void MultiColorGaussSeidel::build_layout() {
   m_values_single.clear();
   m_inv_diag.resize(m_rows.size());
   m_diag.resize(m_rows.size());
-  m_constant_version = -1;
 }
 
 void MultiColorGaussSeidel::classify(const BlockMatrix3& A) {
@@ -91,7 +90,7 @@ void MultiColorGaussSeidel::classify(const BlockMatrix3& A) {
   m_classified = true;
 }
 
-bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A, const std::vector<char>* skip) {
+bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A) {
   const bool single = m_precision == Precision::Single;
   const auto& off = A.row_offsets();
   const auto& cols = A.col_indices();
@@ -103,11 +102,6 @@ bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A, const std::vector
     size_t f = m_value_offsets[i], s = f + 9 * static_cast<size_t>(m_full[i]);
     for (Index k = off[r]; k < off[r + 1]; ++k) {
       if (cols[k] == r) continue;
-      if (skip && (*skip)[k]) {
-        if (m_scalar[k]) ++s;
-        else f += 9;
-        continue;
-      }
       const Mat3& b = A.block(k);
       if (m_scalar[k]) {
         if (!is_scalar_block(b)) reclassify = true;
@@ -136,25 +130,19 @@ bool MultiColorGaussSeidel::copy_values(const BlockMatrix3& A, const std::vector
   return !reclassify;
 }
 
-void MultiColorGaussSeidel::set_matrix(const BlockMatrix3& A, const std::vector<char>* constant, long constant_version) {
+void MultiColorGaussSeidel::set_matrix(const BlockMatrix3& A) {
   if (A.row_offsets() != m_pattern_offsets || A.col_indices() != m_pattern_cols) {
     m_colors = A.rows() > 0 ? color_rows(A) : std::vector<std::vector<Index>>{};
     m_pattern_offsets = A.row_offsets();
     m_pattern_cols = A.col_indices();
     build_layout();
   }
-  if (constant && constant->size() != m_pattern_cols.size())
-    throw Error(fmt::format("Gauss-Seidel: {} constant-block flags for {} blocks", constant->size(), m_pattern_cols.size()));
-  // Constant blocks are skipped only where the copy holds them in the present layout (the classification and
-  // version unchanged since they were copied).
-  const std::vector<char>* skip = constant && m_classified && m_constant_version == constant_version ? constant : nullptr;
   // The classification of the first values is kept while it holds (a scalar block that stopped being one redoes it;
   // a full block that became scalar just stays full), so that a new matrix usually costs one pass over A.
-  if (!m_classified || !copy_values(A, skip)) {
+  if (!m_classified || !copy_values(A)) {
     classify(A);
-    if (!copy_values(A, nullptr)) throw Error("Gauss-Seidel: block classification changed during the copy");
+    if (!copy_values(A)) throw Error("Gauss-Seidel: block classification changed during the copy");
   }
-  m_constant_version = constant ? constant_version : -1;
   m_ready = true;
 }
 

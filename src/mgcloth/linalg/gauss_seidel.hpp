@@ -23,10 +23,7 @@ class MultiColorGaussSeidel {
 
   /// Takes new values: copies the blocks into color order and inverts the diagonal blocks (and colors the rows
   /// again when the pattern is not the one colored before). Throws SolveError for a singular block.
-  /// `constant` (per block of A's pattern) marks blocks whose values are those of the previous set_matrix with the
-  /// same `constant_version` (the quadratic bending model's couplings beyond the one-ring, which no other term
-  /// touches): the copy keeps them instead of reading them again, about three quarters of a cloth matrix's blocks.
-  void set_matrix(const BlockMatrix3& A, const std::vector<char>* constant = nullptr, long constant_version = 0);
+  void set_matrix(const BlockMatrix3& A);
   /// y = A x for the A of the last set_matrix, from the color-ordered copy (which stores most blocks as one number,
   /// so it moves fewer bytes than BlockMatrix3::multiply). Double precision only: in single precision the copy is
   /// a rounded A. Sums run in another order than BlockMatrix3::multiply's, so the two agree to round-off.
@@ -54,8 +51,7 @@ class MultiColorGaussSeidel {
   /// Which off-diagonal blocks of the current values are multiples of the identity (stored as one number), and the
   /// value layout that follows from it. Returns false where a block classified scalar is no longer one.
   void classify(const BlockMatrix3& A);
-  /// Blocks with a nonzero `skip` entry are left as they are in the copy.
-  bool copy_values(const BlockMatrix3& A, const std::vector<char>* skip);
+  bool copy_values(const BlockMatrix3& A);
   /// Σ over row i's off-diagonal blocks of A_ij x_j (rows 0-1 as a pair, row 2).
   template <class T>
   void offdiagonal_product(const T* values, Index i, const double* x, double out[3]) const;
@@ -78,7 +74,6 @@ class MultiColorGaussSeidel {
   std::vector<float> m_values_single;
   std::vector<Mat3> m_inv_diag;  ///< per packed row
   std::vector<Mat3> m_diag;      ///< per packed row, as in A (for multiply)
-  long m_constant_version = -1;  ///< the version whose constant blocks the copy holds (-1: none)
 };
 
 /// The adaptive-smoothing mask (Wang 2018 §4.3): mask[i] = 1 where the residual of block row i has norm >=

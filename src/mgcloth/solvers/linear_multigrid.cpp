@@ -58,8 +58,7 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A, const std::vecto
   }
   for (size_t l = 0; l + 1 < m_levels.size(); ++l) {
     const auto& Al = matrix(static_cast<Index>(l));
-    if (l == 0) m_levels[l].smoother.set_matrix(Al, constant, constant_version);
-    else m_levels[l].smoother.set_matrix(Al);
+    m_levels[l].smoother.set_matrix(Al);
     if (m_params.chebyshev && m_levels[l].rho == 0.0)
       m_levels[l].rho = linalg::estimate_gauss_seidel_rho(Al, m_levels[l].smoother);
     m_levels[l].rap.compute(Al, m_levels[l + 1].A);  // Wang 2018 §3.1: A_{h+1} = Iᵀ A_h I

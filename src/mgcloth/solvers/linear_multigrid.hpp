@@ -38,9 +38,9 @@ class LinearMultigrid {
 
   /// New level-0 values: recomputes the coarse operators, smoother diagonals and the coarsest factorization.
   /// `constant` (per block of A): blocks whose values are the same in every matrix given with the same
-  /// `constant_version` (physics::Objective::constant_blocks); the level-0 smoother's copy and the first Galerkin
-  /// product then leave them out of the per-matrix work. The caller must keep the promise: results are wrong
-  /// otherwise.
+  /// `constant_version` (physics::Objective::constant_blocks); the first Galerkin product then sums their share
+  /// once per version. The caller must keep the promise: results are wrong otherwise. (The level-0 smoother's copy
+  /// reads them anyway: skipping them there was measured no faster, their bytes share cache lines with the rest.)
   void set_matrix(const linalg::BlockMatrix3& A, const std::vector<char>* constant = nullptr, long constant_version = 0);
   /// y = A_l x: from the level's smoother copy where it has one in double precision (fewer bytes), else A_l's.
   void multiply(Index l, const VecX& x, VecX& y) const;
