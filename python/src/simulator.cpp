@@ -261,6 +261,12 @@ void bind_simulator(py::module_& m) {
       .def_readonly("velocity_error", &sim::StepStats::velocity_error,
                     "The solver's estimate of the largest per-vertex velocity error at the end of the step (m/s; inf: "
                     "no estimate possible, NaN: none made).")
+      .def_readonly("true_velocity_error", &sim::StepStats::true_velocity_error,
+                    "With check_accuracy on: the largest per-vertex distance between the step's result and its own "
+                    "minimizer (Newton + CHOLMOD solved on from the result), over the time step (m/s; NaN: not "
+                    "checked, or the check did not converge).")
+      .def_readonly("true_velocity_rms", &sim::StepStats::true_velocity_rms,
+                    "With check_accuracy on: the RMS over the vertices of that distance, over the time step (m/s).")
       .def_readonly("contact_pairs", &sim::StepStats::contact_pairs,
                     "Cloth contact: pairs inside the contact layer at the end of the step (-1: no cloth contact).")
       .def_readonly("min_distance", &sim::StepStats::min_distance,
@@ -318,6 +324,11 @@ void bind_simulator(py::module_& m) {
           py::arg("frames") = py::none(),
           "Runs to frame `frames` (default: the scene's \"frames\") and finishes the recording, as `mgcloth run` "
           "does. Returns the StepStats of the steps taken.")
+      .def_property(
+          "check_accuracy", [](const PySimulator& s) { return s.sim().accuracy_check(); },
+          [](PySimulator& s, bool on) { s.sim().set_accuracy_check(on); },
+          "Whether every step is measured against its own minimizer (`mgcloth run --check-accuracy`): "
+          "StepStats.true_velocity_error and true_velocity_rms, at the price of a Newton solve per step.")
       .def("finish", &PySimulator::finish,
            "Ends the recording: writes animation.glb when the scene's output.format asks for it (run() calls it). "
            "Calling it again rewrites it; recording may go on after it.")

@@ -1,5 +1,6 @@
 """Simulations from NumPy arrays: views, scripted pins and obstacles, solvers by name."""
 import gc
+import math
 
 import numpy as np
 import pytest
@@ -173,3 +174,22 @@ def test_a_velocity_tolerance_stops_each_step_by_its_estimate(small_grid):
         assert s.status == "converged" and s.velocity_error <= 1e-3
     with pytest.raises(mgcloth.InputError, match="velocity_tol"):
         hanging(V, F, solver="gs-chebyshev", velocity_tol=1e-3).step()
+
+
+def test_the_accuracy_check_measures_each_step_against_its_minimizer(small_grid):
+    # Off by default (NaN); on, a loose stop leaves a measurable distance to the step's minimizer, and a tight one
+    # almost none.
+    V, F = small_grid
+    sim = hanging(V, F, solver="fmg", rel_grad=1e-8)
+    assert not sim.check_accuracy
+    assert all(math.isnan(s.true_velocity_error) for s in sim.step(1))
+    sim.check_accuracy = True
+    assert sim.check_accuracy
+    tight = sim.step(2)
+    loose_sim = hanging(V, F, solver="fmg", rel_grad=1e-1)
+    loose_sim.check_accuracy = True
+    loose = loose_sim.step(2)
+    for t, l in zip(tight, loose):
+        assert 0.0 <= t.true_velocity_error < 1e-4
+        assert l.true_velocity_error > 10 * t.true_velocity_error
+        assert 0.0 < l.true_velocity_rms <= l.true_velocity_error

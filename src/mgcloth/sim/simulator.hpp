@@ -129,9 +129,9 @@ class Simulator {
   /// on scenes whose trajectories part (contact, sliding). The check's solver is a separate object, so the step's
   /// solver carries on as it would have; what the two share is the objective's caches (cloth contact's near pairs),
   /// which can change later steps by round-off. The check minimizes the objective without the obstacles'
-  /// feasibility projection, so in contact with analytic obstacles it reads the projection's moves too. Costs a
-  /// Newton solve per step.
+  /// feasibility projection (with it, Newton stalled on the drape's landing steps). Costs a Newton solve per step.
   void set_accuracy_check(bool on);
+  bool accuracy_check() const { return !m_checkers.empty(); }
 
   /// Scripted animation between frames (the Python module): cloth c's pins pull towards `targets` (its
   /// pinned_vertices() order), reached at the end of the next frame, moving linearly from where they pull now; the
