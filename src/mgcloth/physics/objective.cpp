@@ -12,23 +12,16 @@ namespace mgcloth::physics {
 
 void Objective::build_pattern() const {
   std::vector<std::pair<Index, Index>> pairs;
-  for (const auto& t : m_terms) t->collect_pattern(pairs);
-  m_pattern = linalg::BlockMatrix3(m_n, std::move(pairs));
-  for (const auto& t : m_terms) t->bind(m_pattern);
-  ++m_pattern_version;
-  static std::atomic<long> stamps{0};
-  m_pattern_stamp = ++stamps;
-  m_constant_stamp = -1;
-}
-
-void Objective::find_constant_blocks() const {
-  if (m_constant_stamp == m_pattern_stamp) return;
-  // The variable terms' pairs reach every block that is not constant; the diagonal is never constant.
-  std::vector<std::pair<Index, Index>> variable;
+  // The variable terms' pairs first, so that the blocks they reach can be told from the constant terms' ones.
   for (const auto& t : m_terms)
-    if (!t->hessian_is_constant()) t->collect_pattern(variable);
-  const bool any_constant =
-      std::any_of(m_terms.begin(), m_terms.end(), [](const auto& t) { return t->hessian_is_constant(); });
+    if (!t->hessian_is_constant()) t->collect_pattern(pairs);
+  const size_t variable_pairs = pairs.size();
+  for (const auto& t : m_terms)
+    if (t->hessian_is_constant()) t->collect_pattern(pairs);
+  const bool any_constant = pairs.size() > variable_pairs;
+  std::vector<std::pair<Index, Index>> variable;
+  if (any_constant) variable.assign(pairs.begin(), pairs.begin() + static_cast<std::ptrdiff_t>(variable_pairs));
+  m_pattern = linalg::BlockMatrix3(m_n, std::move(pairs));
   m_constant_blocks.assign(static_cast<size_t>(m_pattern.num_blocks()), any_constant ? 1 : 0);
   if (any_constant) {
     for (Index r = 0; r < m_n; ++r) m_constant_blocks[m_pattern.diagonal(r)] = 0;
@@ -40,19 +33,10 @@ void Objective::find_constant_blocks() const {
   m_variable_blocks.clear();
   for (Index k = 0; k < m_pattern.num_blocks(); ++k)
     if (!m_constant_blocks[k]) m_variable_blocks.push_back(k);
-  m_constant_stamp = m_pattern_stamp;
-}
-
-const std::vector<char>& Objective::constant_blocks() const {
-  require_finalized();
-  find_constant_blocks();
-  return m_constant_blocks;
-}
-
-const std::vector<Index>& Objective::variable_blocks() const {
-  require_finalized();
-  find_constant_blocks();
-  return m_variable_blocks;
+  for (const auto& t : m_terms) t->bind(m_pattern);
+  ++m_pattern_version;
+  static std::atomic<long> stamps{0};
+  m_pattern_stamp = ++stamps;
 }
 
 void Objective::finalize() {
@@ -93,30 +77,19 @@ void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd
 void Objective::hessian_reusing_constant(const VecX& x, linalg::BlockMatrix3& H, bool project_psd,
                                          ConstantHessian& cache) const {
   update_stencils(x);
-  const bool any_constant =
-      std::any_of(m_terms.begin(), m_terms.end(), [](const auto& t) { return t->hessian_is_constant(); });
-  const bool ready = H.same_pattern(m_pattern) && cache.version == m_pattern_stamp && cache.project_psd == project_psd;
-  // The first matrix of a pattern is assembled whole: where cloth contact changes the pattern at every matrix, the
-  // constant blocks' bookkeeping would only add work.
-  if (!any_constant || (!ready && cache.seen != m_pattern_stamp)) {
-    cache.seen = m_pattern_stamp;
-    cache.version = -1;
-    hessian(x, H, project_psd);
-    return;
-  }
+  const bool fresh = !H.same_pattern(m_pattern) || cache.version != m_pattern_stamp || cache.project_psd != project_psd;
   if (!H.same_pattern(m_pattern)) H = m_pattern;
-  const std::vector<Index>& variable = variable_blocks();
-  const Index nv = static_cast<Index>(variable.size());
-  if (!ready) {
+  const Index nv = static_cast<Index>(m_variable_blocks.size());
+  if (fresh) {
     H.set_zero();
     for (const auto& t : m_terms)
       if (t->hessian_is_constant()) t->add_hessian(x, H, project_psd);
     cache.values.resize(static_cast<size_t>(nv));
-    parallel_for(nv, [&](Index j) { cache.values[j] = H.block(variable[j]); }, 4096);
+    parallel_for(nv, [&](Index j) { cache.values[j] = H.block(m_variable_blocks[j]); }, 4096);
     cache.version = m_pattern_stamp;
     cache.project_psd = project_psd;
   } else {
-    parallel_for(nv, [&](Index j) { H.block(variable[j]) = cache.values[j]; }, 4096);
+    parallel_for(nv, [&](Index j) { H.block(m_variable_blocks[j]) = cache.values[j]; }, 4096);
   }
   for (const auto& t : m_terms)
     if (!t->hessian_is_constant()) t->add_hessian(x, H, project_psd);

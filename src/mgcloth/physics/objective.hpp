@@ -36,27 +36,21 @@ class Objective {
   /// What hessian_reusing_constant() keeps per matrix: the constant terms' share of the blocks that other terms add
   /// to, and the pattern stamp and projection flag it was assembled for.
   struct ConstantHessian {
-    long version = -1;  ///< the pattern stamp `values` belong to (-1: none)
-    long seen = -1;     ///< the pattern stamp of the last matrix, assembled whole or not
+    long version = -1;
     bool project_psd = false;
     std::vector<Mat3> values;  ///< per variable block (variable_blocks())
-    /// Whether the last call left H's constant blocks to be reused: the promise LinearMultigrid::set_matrix's
-    /// constant blocks need.
-    bool split(const Objective& o) const { return version >= 0 && version == o.pattern_stamp(); }
   };
   /// As hessian(), for a matrix H that only hessian() and this function of this objective have written since the
   /// `cache`'s last use (one cache per matrix): terms whose Hessian is constant (Term::hessian_is_constant) are
-  /// assembled once per pattern, from its second matrix on (the first is assembled whole, as hessian() does: cloth
-  /// contact can change the pattern at every matrix); afterwards the constant blocks keep their values and the
-  /// variable blocks start from the cached constant share. Sums run in another order than hessian()'s: the two
-  /// agree to round-off.
+  /// assembled once per pattern; afterwards the constant blocks keep their values and the variable blocks start
+  /// from the cached constant share. Sums run in another order than hessian()'s: the two agree to round-off.
   void hessian_reusing_constant(const VecX& x, linalg::BlockMatrix3& H, bool project_psd, ConstantHessian& cache) const;
   /// Per block of the pattern: 1 where only terms with a constant Hessian add to it, so that its value is the same
   /// at every x (the quadratic bending model's couplings beyond the membrane's one-ring). All 0 when no term is
   /// constant. Valid for the current pattern_stamp().
-  const std::vector<char>& constant_blocks() const;
-  /// The blocks that are not constant, ascending. (Both found on first use per pattern.)
-  const std::vector<Index>& variable_blocks() const;
+  const std::vector<char>& constant_blocks() const { return m_constant_blocks; }
+  /// The blocks that are not constant, ascending.
+  const std::vector<Index>& variable_blocks() const { return m_variable_blocks; }
   /// Lets every term update its stencils at x; rebuilds the pattern (and rebinds the terms) when one changed.
   /// Returns whether the pattern changed. The pattern is a cache of the terms' stencils, hence const.
   bool update_stencils(const VecX& x) const;
@@ -79,7 +73,6 @@ class Objective {
   void require_finalized() const;
 
   void build_pattern() const;
-  void find_constant_blocks() const;
 
   Index m_n;
   std::vector<std::unique_ptr<Term>> m_terms;
@@ -88,7 +81,6 @@ class Objective {
   mutable long m_pattern_stamp = 0;
   mutable std::vector<char> m_constant_blocks;
   mutable std::vector<Index> m_variable_blocks;
-  mutable long m_constant_stamp = -1;  ///< the pattern stamp m_constant_blocks belong to
   bool m_finalized = false;
 };
 

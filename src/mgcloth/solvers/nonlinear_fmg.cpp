@@ -104,8 +104,9 @@ class NonlinearFMG::Backend final : public CpuVectors {
       st.assembly_ms += t.ms();
     }
     Timer tg;
-    // The constant blocks are promised only for matrices that hessian_reusing_constant filled apart.
-    const bool split = f.m_params.matrix_update != MatrixUpdate::Constant && f.m_constant.split(m_obj);
+    // The constant blocks are promised only for matrices that hessian_reusing_constant filled.
+    const bool split = f.m_params.matrix_update != MatrixUpdate::Constant &&
+                       m_obj.variable_blocks().size() < m_obj.constant_blocks().size();
     if (split) m_mg.set_matrix(f.m_A, &m_obj.constant_blocks(), m_obj.pattern_stamp());
     else m_mg.set_matrix(f.m_A);
     st.galerkin_ms += tg.ms();
