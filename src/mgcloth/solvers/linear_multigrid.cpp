@@ -44,8 +44,8 @@ void LinearMultigrid::set_matrix(const linalg::BlockMatrix3& A, const std::vecto
   }
   m_fine = &A;
   if (m_levels.size() > 1) {
-    // The constant blocks' share of A_1 is summed on the second matrix of a pattern, not the first: where contact
-    // changes the pattern at every matrix, summing it apart would only add a pass.
+    // The constant blocks' share of A_1 is not summed apart on a matrix whose pattern made the hierarchy rebuild
+    // (contact can change the pattern at every matrix, and then it would only add a pass), but on the next one.
     linalg::GalerkinProduct& rap = m_levels[0].rap;
     if (!constant) {
       if (rap.has_constant_blocks()) rap.clear_constant_blocks();
