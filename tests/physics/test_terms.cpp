@@ -1,10 +1,12 @@
 // Finite-difference, symmetry and PSD checks for every term of the incremental potential.
 #include <mgcloth/core/error.hpp>
+#include <mgcloth/core/parallel.hpp>
 #include <mgcloth/mesh/generators.hpp>
 #include <mgcloth/mesh/topology.hpp>
 #include <mgcloth/physics/attachment.hpp>
 #include <mgcloth/physics/bending.hpp>
 #include <mgcloth/physics/contact.hpp>
+#include <mgcloth/physics/element_kernels.hpp>
 #include <mgcloth/physics/inertia.hpp>
 #include <mgcloth/physics/membrane.hpp>
 #include <mgcloth/physics/objective.hpp>
@@ -15,7 +17,10 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <unsupported/Eigen/AutoDiff>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 using namespace mgcloth;
@@ -128,6 +133,47 @@ TEST(Terms, DihedralAngleKnownValues) {
   EXPECT_NEAR(dihedral_angle(x), 0.0, 1e-15);
   x.segment<3>(6) = Vec3(0.5, 0, 1);
   EXPECT_NEAR(std::abs(dihedral_angle(x)), M_PI / 2, 1e-12);
+}
+
+// The hand-derived ∇²θ against two references it shares no code with: forward-mode automatic differentiation of the
+// gradient, and central differences of it, on hinges folded from nearly flat to nearly shut, with skewed wings.
+TEST(Terms, DihedralAngleHessianMatchesAutoDiffAndDifferences) {
+  using AD = Eigen::AutoDiffScalar<Vec12>;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int checked = 0;
+  for (double fold : {0.01, 0.5, 1.5, 2.5, 3.0}) {
+    for (int trial = 0; trial < 4; ++trial) {
+      // Edge along x, wing x2 in the xy-plane, wing x3 rotated by `fold`, all perturbed and moved off the origin.
+      Vec12 x;
+      x << 0, 0, 0, 1.3, 0, 0, 0.4, 0.9, 0, 0.7, -0.8 * std::cos(fold), 0.8 * std::sin(fold);
+      for (int i = 0; i < 12; ++i) x[i] += 0.15 * u(rng) + (i % 3 == 2 ? 0.3 : -0.2);
+      const Mat12 H = dihedral_angle_hessian(x);
+      std::array<AD, 12> xa, ga;
+      for (int i = 0; i < 12; ++i) xa[i] = AD(x[i], 12, i);
+      hd::dihedral_angle_gradient(xa.data(), ga.data());
+      Mat12 Had;
+      for (int i = 0; i < 12; ++i) Had.row(i) = ga[i].derivatives().transpose();
+      EXPECT_LE((H - Had).norm(), 1e-11 * Had.norm()) << "fold " << fold;
+      const double h = 1e-6;
+      Mat12 Hfd;
+      for (int j = 0; j < 12; ++j) {
+        Vec12 xp = x, xm = x, gp, gm;
+        xp[j] += h;
+        xm[j] -= h;
+        hd::dihedral_angle_gradient(xp.data(), gp.data());
+        hd::dihedral_angle_gradient(xm.data(), gm.data());
+        Hfd.col(j) = (gp - gm) / (2 * h);
+      }
+      EXPECT_LE((H - Hfd).norm(), 1e-6 * Hfd.norm()) << "fold " << fold;
+      // θ is invariant under translation: each row's blocks sum to zero.
+      for (int i = 0; i < 12; ++i)
+        for (int c = 0; c < 3; ++c)
+          EXPECT_NEAR(H(i, c) + H(i, 3 + c) + H(i, 6 + c) + H(i, 9 + c), 0.0, 1e-10 * H.norm());
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 20);
 }
 
 TEST(Terms, QuadraticBending) {
@@ -313,6 +359,44 @@ TEST(Objective, SumsTermsAndAssemblesInParallelDeterministically) {
   obj.hessian(x, H1);
   obj.hessian(x, H2);
   for (Index k = 0; k < H1.num_blocks(); ++k) EXPECT_TRUE((H1.block(k).array() == H2.block(k).array()).all());
+}
+
+// The fused value-and-gradient pass must be the separate passes to the bit (solvers mix them), on any thread count.
+TEST(Objective, FusedValueAndGradientAreTheSeparatePassesBitForBit) {
+  auto f = small_cloth(true);
+  const Index n = f.mesh.num_vertices();
+  const VecX mass = VecX::LinSpaced(n, 0.01, 0.02);
+  Objective obj(n);
+  obj.add(std::make_unique<StVKMembrane>(f.mesh, f.material));
+  obj.add(std::make_unique<HingeBending>(f.mesh, f.topo, f.material));
+  obj.add(std::make_unique<IsometricBending>(f.mesh, f.topo, f.material));
+  obj.add(std::make_unique<QuadraticBending>(f.mesh, f.topo, f.material));
+  obj.add(std::make_unique<InertiaTerm>(mass)).set_prediction(deformed_state(f.mesh, 4, 0.02), 1.0 / 30.0);
+  obj.add(std::make_unique<GravityTerm>(mass, Vec3(0, 0, -9.81)));
+  obj.add(std::make_unique<SeamTerm>(std::vector<std::vector<Index>>{{0, 5, 9}, {2, 7}}, 3e3, n));
+  std::vector<geometry::Obstacle> obstacles(1);
+  obstacles[0].shape = std::make_shared<geometry::Sphere>(0.1);
+  obstacles[0].motion = std::make_shared<geometry::ConstantVelocityMotion>(
+      geometry::Pose{Eigen::Quaterniond::Identity(), Vec3(0.1, 0.07, 0.02)}, Vec3::Zero(), Vec3::Zero());
+  ContactParams params;
+  params.thickness = 0.02;
+  obj.add(std::make_unique<ObstacleContact>(VecX::Constant(n, 1e-3), obstacles, params));
+  obj.finalize();
+  const int threads = num_threads();
+  for (int t : {1, 2}) {
+    set_num_threads(t);
+    for (std::uint64_t seed : {3, 8}) {
+      const VecX x = deformed_state(f.mesh, seed, 0.01);
+      VecX g1, g2;
+      obj.gradient(x, g1);
+      const double e1 = obj.value(x);
+      const double e2 = obj.value_and_gradient(x, g2);
+      EXPECT_EQ(std::memcmp(&e1, &e2, sizeof e1), 0) << e1 << " " << e2;
+      ASSERT_EQ(g1.size(), g2.size());
+      EXPECT_EQ(std::memcmp(g1.data(), g2.data(), sizeof(double) * static_cast<size_t>(g1.size())), 0);
+    }
+  }
+  set_num_threads(threads);
 }
 
 // The round-off floor of the gradient (Kopaničáková 2019 §7.2's limiting accuracy). Gravity's gradient does not

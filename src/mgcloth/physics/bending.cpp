@@ -3,7 +3,6 @@
 #include <mgcloth/core/parallel.hpp>
 
 #include <Eigen/SVD>
-#include <unsupported/Eigen/AutoDiff>
 
 #include <algorithm>
 #include <cmath>
@@ -250,12 +249,8 @@ std::unique_ptr<Term> make_bending(const mesh::TriMesh& mesh, const mesh::Topolo
 double dihedral_angle(const Vec12& x) { return hd::dihedral_angle(x.data()); }
 
 Mat12 dihedral_angle_hessian(const Vec12& x) {
-  using AD = Eigen::AutoDiffScalar<Vec12>;
-  std::array<AD, 12> xa, ga;
-  for (int i = 0; i < 12; ++i) xa[i] = AD(x[i], 12, i);
-  hd::dihedral_angle_gradient(xa.data(), ga.data());
-  Mat12 H;
-  for (int i = 0; i < 12; ++i) H.row(i) = ga[i].derivatives().transpose();
+  Eigen::Matrix<double, 12, 12, Eigen::RowMajor> H;
+  hd::dihedral_angle_hessian(x.data(), H.data());
   return 0.5 * (H + H.transpose());
 }
 

@@ -16,7 +16,7 @@ using Mat12 = Eigen::Matrix<double, 12, 12>;
 /// θ = atan2((N1 × N2)·ê, N1·N2), N1 = e × (x2 − x0), N2 = (x3 − x0) × e; zero when flat (hd::dihedral_angle).
 double dihedral_angle(const Vec12& x);
 
-/// Exact ∇²θ by forward-mode differentiation of dihedral_angle_gradient.
+/// Exact ∇²θ, derived by hand (hd::dihedral_angle_hessian), symmetrized.
 Mat12 dihedral_angle_hessian(const Vec12& x);
 
 /// Hinge bending: E = k_b |ē|²/(2(Ā1 + Ā2)) (θ − θ̄)² per interior edge, with rest quantities from the flat

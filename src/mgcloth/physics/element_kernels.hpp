@@ -71,7 +71,7 @@ MGCLOTH_HOST_DEVICE inline double dihedral_angle(const double* x) {
 
 /// ∇θ (Bridson et al. 2003): the opposite vertices move along their triangle's normal over its height
 /// (∂θ/∂x2 = −|e| N1/|N1|²), the edge vertices take the opposite, split by where x2 and x3 project onto the edge.
-/// Generic in the scalar so that forward-mode automatic differentiation of it gives the exact ∇²θ on the CPU.
+/// Generic in the scalar so that the tests can check dihedral_angle_hessian against its automatic differentiation.
 template <class S>
 MGCLOTH_HOST_DEVICE void dihedral_angle_gradient(const S* x, S* g) {
   using std::sqrt;
@@ -109,6 +109,68 @@ MGCLOTH_HOST_DEVICE inline bool hinge_degenerate(const double* x) {
   const double el2 = dot(e, e), tiny = 1e-24 * el2 * el2;
   const V3 n1 = cross(e, load3(x + 6) - x0), n2 = cross(e, load3(x + 9) - x0);
   return dot(n1, n1) <= tiny || dot(n2, n2) <= tiny;
+}
+
+/// ∇²θ (row-major 12×12) by differentiating dihedral_angle_gradient's closed form by hand. With e = x1 − x0,
+/// a2 = x2 − x0, a3 = x3 − x0 the gradient reads g2 = −|e| n1/|n1|², g3 = −|e| n2/|n2|², g1 = −t2 g2 − t3 g3,
+/// g0 = −g1 − g2 − g3; its partials in (e, a2, a3) follow from ∂(n/|n|²) = (I − 2n̂n̂ᵀ)/|n|² ∂n,
+/// ∂n1 = −[a2]×∂e + [e]×∂a2, ∂n2 = [a3]×∂e − [e]×∂a3, ∂t2 = ((a2 − 2t2 e)·∂e + e·∂a2)/|e|², and map to the
+/// vertices by ∂/∂x0 = −(∂/∂e + ∂/∂a2 + ∂/∂a3). Symmetric to round-off. Not for a degenerate hinge.
+MGCLOTH_HOST_DEVICE inline void dihedral_angle_hessian(const double* x, double* H) {
+  const V3 x0 = load3(x), e = load3(x + 3) - x0, a2 = load3(x + 6) - x0, a3 = load3(x + 9) - x0;
+  const V3 n1 = cross(e, a2), n2 = cross(a3, e);
+  const double el2 = dot(e, e), el = std::sqrt(el2), q1 = dot(n1, n1), q2 = dot(n2, n2);
+  const V3 eh = (1.0 / el) * e;
+  const V3 g2 = (-el / q1) * n1, g3 = (-el / q2) * n2;
+  const double t2 = dot(a2, e) / el2, t3 = dot(a3, e) / el2;
+  // D[r][w] = ∂g_r/∂w (row-major 3×3) for r = 0..3 and w = e, a2, a3.
+  double D[4][3][9];
+  // Column j of (I − 2n̂n̂ᵀ)(c × u_j) scaled by s, added to M.
+  const auto add_reflected_cross = [](double* M, const V3& n, double q, const V3& c, double s) {
+    const V3 u[3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
+    for (int j = 0; j < 3; ++j) {
+      const V3 w = cross(c, u[j]);
+      const V3 pw = w - (2.0 * dot(n, w) / q) * n;
+      for (int i = 0; i < 3; ++i) M[3 * i + j] += s * comp(pw, i);
+    }
+  };
+  const auto outer_add = [](double* M, const V3& a, const V3& b, double s) {
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) M[3 * i + j] += s * comp(a, i) * comp(b, j);
+  };
+  for (int r = 0; r < 4; ++r)
+    for (int w = 0; w < 3; ++w)
+      for (int k = 0; k < 9; ++k) D[r][w][k] = 0.0;
+  outer_add(D[2][0], n1, eh, -1.0 / q1);
+  add_reflected_cross(D[2][0], n1, q1, a2, el / q1);
+  add_reflected_cross(D[2][1], n1, q1, e, -el / q1);
+  outer_add(D[3][0], n2, eh, -1.0 / q2);
+  add_reflected_cross(D[3][0], n2, q2, a3, -el / q2);
+  add_reflected_cross(D[3][2], n2, q2, e, el / q2);
+  // g1 = −t2 g2 − t3 g3.
+  const V3 dt2_de = (1.0 / el2) * (a2 - 2.0 * t2 * e), dt3_de = (1.0 / el2) * (a3 - 2.0 * t3 * e);
+  const V3 dt_da = (1.0 / el2) * e;
+  for (int k = 0; k < 9; ++k) {
+    D[1][0][k] = -t2 * D[2][0][k] - t3 * D[3][0][k];
+    D[1][1][k] = -t2 * D[2][1][k];
+    D[1][2][k] = -t3 * D[3][2][k];
+  }
+  outer_add(D[1][0], g2, dt2_de, -1.0);
+  outer_add(D[1][0], g3, dt3_de, -1.0);
+  outer_add(D[1][1], g2, dt_da, -1.0);
+  outer_add(D[1][2], g3, dt_da, -1.0);
+  for (int w = 0; w < 3; ++w)
+    for (int k = 0; k < 9; ++k) D[0][w][k] = -D[1][w][k] - D[2][w][k] - D[3][w][k];
+  for (int r = 0; r < 4; ++r)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const int k = 3 * i + j;
+        double* row = H + (3 * r + i) * 12 + j;
+        row[0] = -(D[r][0][k] + D[r][1][k] + D[r][2][k]);
+        row[3] = D[r][0][k];
+        row[6] = D[r][1][k];
+        row[9] = D[r][2][k];
+      }
 }
 
 /// Hinge bending c θ² (discrete shells, flat rest state) with gradient and the Gauss-Newton Hessian 2c ∇θ∇θᵀ

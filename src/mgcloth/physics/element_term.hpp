@@ -79,6 +79,18 @@ class ElementTerm : public Term {
     });
   }
 
+  /// One colored pass for both; each element's energy is kept and summed afterwards in value()'s order, so the
+  /// result is value()'s to the bit.
+  double value_and_gradient(const VecX& x, VecX& g) const override {
+    std::vector<double> energy(static_cast<size_t>(num_elements()));
+    for_each_colored([&](Index e) {
+      Local ge = Local::Zero();
+      energy[static_cast<size_t>(e)] = element(e, gather(x, e), &ge, nullptr);
+      for (int a = 0; a < K; ++a) g.template segment<3>(3 * m_elements[e][a]) += ge.template segment<3>(3 * a);
+    });
+    return parallel_sum(num_elements(), [&](Index e) { return energy[static_cast<size_t>(e)]; });
+  }
+
   void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project) const override {
     for_each_colored([&](Index e) {
         LocalHessian He = LocalHessian::Zero();

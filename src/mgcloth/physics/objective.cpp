@@ -67,6 +67,13 @@ void Objective::gradient(const VecX& x, VecX& g) const {
   for (const auto& t : m_terms) t->add_gradient(x, g);
 }
 
+double Objective::value_and_gradient(const VecX& x, VecX& g) const {
+  g.setZero(x.size());
+  double e = 0.0;
+  for (const auto& t : m_terms) e += t->value_and_gradient(x, g);
+  return e;
+}
+
 void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
   update_stencils(x);
   if (!H.same_pattern(m_pattern)) H = m_pattern;
@@ -77,8 +84,9 @@ void Objective::hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd
 void Objective::hessian_reusing_constant(const VecX& x, linalg::BlockMatrix3& H, bool project_psd,
                                          ConstantHessian& cache) const {
   update_stencils(x);
-  const bool fresh = !H.same_pattern(m_pattern) || cache.version != m_pattern_stamp || cache.project_psd != project_psd;
-  if (!H.same_pattern(m_pattern)) H = m_pattern;
+  const bool same = H.same_pattern(m_pattern);  // compares the whole pattern: once
+  const bool fresh = !same || cache.version != m_pattern_stamp || cache.project_psd != project_psd;
+  if (!same) H = m_pattern;
   const Index nv = static_cast<Index>(m_variable_blocks.size());
   if (fresh) {
     H.set_zero();

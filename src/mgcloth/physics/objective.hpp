@@ -30,6 +30,8 @@ class Objective {
 
   double value(const VecX& x) const;
   void gradient(const VecX& x, VecX& g) const;
+  /// value(x) and gradient(x, g) in one pass where the terms can fuse them; bitwise the same results.
+  double value_and_gradient(const VecX& x, VecX& g) const;
   /// Assembles into H (given this objective's pattern first if it has another one). Asks the terms to update
   /// their stencils at x first (update_stencils).
   void hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd = true) const;

@@ -12,6 +12,13 @@ void SubObjectiveTerm::add_gradient(const VecX& x, VecX& g) const {
   g.segment(3 * m_offset, gl.size()) += gl;
 }
 
+double SubObjectiveTerm::value_and_gradient(const VecX& x, VecX& g) const {
+  VecX gl;
+  const double e = m_objective->value_and_gradient(local(x), gl);
+  g.segment(3 * m_offset, gl.size()) += gl;
+  return e;
+}
+
 void SubObjectiveTerm::add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const {
   if (m_slots.size() != static_cast<size_t>(m_objective->hessian_pattern().num_blocks()))
     throw_error("{}: the joint objective was not finalized after the term was added", m_name);

@@ -22,6 +22,7 @@ class SubObjectiveTerm final : public Term {
 
   double value(const VecX& x) const override;
   void add_gradient(const VecX& x, VecX& g) const override;
+  double value_and_gradient(const VecX& x, VecX& g) const override;
   void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const override;
   void collect_pattern(std::vector<std::pair<Index, Index>>& pairs) const override;
   void bind(const linalg::BlockMatrix3& pattern) override;

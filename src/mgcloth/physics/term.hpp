@@ -16,6 +16,12 @@ class Term {
   virtual std::string name() const = 0;
   virtual double value(const VecX& x) const = 0;
   virtual void add_gradient(const VecX& x, VecX& g) const = 0;
+  /// value(x), with the gradient added into g: one pass over the elements where a term can fuse them. The value and
+  /// g must be bitwise those of value() and add_gradient(), so that a solver may use either.
+  virtual double value_and_gradient(const VecX& x, VecX& g) const {
+    add_gradient(x, g);
+    return value(x);
+  }
   /// Adds this term's Hessian into H (whose pattern contains this term's stencils); each element block is
   /// projected to be positive semi-definite when asked.
   virtual void add_hessian(const VecX& x, linalg::BlockMatrix3& H, bool project_psd) const = 0;

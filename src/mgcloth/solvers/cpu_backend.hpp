@@ -19,6 +19,7 @@ class CpuVectors : public FmgBackend {
 
   double energy(Vec x) override { return m_obj.value((*this)[x]); }
   void gradient(Vec x, Vec g) override { m_obj.gradient((*this)[x], (*this)[g]); }
+  double energy_and_gradient(Vec x, Vec g) override { return m_obj.value_and_gradient((*this)[x], (*this)[g]); }
   bool has_projection() const override { return static_cast<bool>(m_project); }
   Index project(Vec x) override { return m_project ? m_project((*this)[x]) : 0; }
   double max_step(Vec x, Vec d, double alpha_max) override { return m_obj.max_step((*this)[x], (*this)[d], alpha_max); }

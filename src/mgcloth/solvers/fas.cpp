@@ -105,8 +105,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
   const physics::Objective& obj = *problem.objective;
   SolveReport rep;
   VecX g;
-  double e = obj.value(x);
-  obj.gradient(x, g);
+  double e = obj.value_and_gradient(x, g);
   double gnorm = g.norm();
   check_finite("fas", e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
@@ -124,8 +123,7 @@ SolveReport Fas::minimize(Problem& problem, VecX& x, const Stop& stop, Trace* tr
     }
     const double e_before = e;
     cycle(0, x, none);
-    e = obj.value(x);
-    obj.gradient(x, g);
+    e = obj.value_and_gradient(x, g);
     gnorm = g.norm();
     check_finite("fas", e, gnorm, k + 1);
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});

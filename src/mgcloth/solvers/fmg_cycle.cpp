@@ -91,9 +91,11 @@ class Solve {
     ++n.energy_evals;
     return timed(n.line_search_ms, [&] { return b.energy(y); });
   }
-  void gradient_at_x() {
+  /// The gradient at x, and with `with_energy` its energy too, from one pass over the elements.
+  void gradient_at_x(bool with_energy = false) {
     timed(n.gradient_ms, [&] {
-      b.gradient(V::X, V::G);
+      if (with_energy) e = b.energy_and_gradient(V::X, V::G);
+      else b.gradient(V::X, V::G);
       b.scale(V::R, -1.0, V::G);
       gnorm = b.norm(V::G);
     });
@@ -101,8 +103,11 @@ class Solve {
   /// After x changed: projection, then the new residual (and the energy when it is not known).
   void refresh(bool energy_known, double e_new) {
     const Index moved = b.has_projection() ? b.project(V::X) : 0;
-    e = (energy_known && moved == 0) ? e_new : (prm.line_search || moved ? energy(V::X) : e);
-    gradient_at_x();
+    const bool known = energy_known && moved == 0;
+    if (known) e = e_new;
+    const bool evaluate = !known && (prm.line_search || moved);
+    if (evaluate) ++n.energy_evals;
+    gradient_at_x(evaluate);
   }
   void update_matrix() {
     if (!b.update_matrix(V::X)) return;  // e.g. the same contact set: keep the hierarchy and its factors
@@ -397,8 +402,7 @@ Solve::Outcome Solve::no_direction_moved(bool fresh_matrix, int k, SolveReport& 
 
 SolveReport Solve::run(const std::vector<FmgStage>& stages) {
   SolveReport rep;
-  e = b.energy(V::X);
-  gradient_at_x();
+  gradient_at_x(true);
   check_finite(name, e, gnorm, 0);
   initial = rep.initial_grad_norm = gnorm;
   if (trace) trace->push_back({0, e, gnorm, timer.ms(), 0.0});

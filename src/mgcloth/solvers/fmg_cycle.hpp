@@ -36,6 +36,11 @@ class FmgBackend {
   // The objective.
   virtual double energy(Vec x) = 0;
   virtual void gradient(Vec x, Vec g) = 0;
+  /// energy(x) with gradient(x, g), in one pass where the backend can fuse them; the same values.
+  virtual double energy_and_gradient(Vec x, Vec g) {
+    gradient(x, g);
+    return energy(x);
+  }
   /// Makes x feasible against the obstacles (§4.5); the number of vertices moved. False has_projection(): none.
   virtual bool has_projection() const = 0;
   /// The objective's Term::max_step: the largest α <= alpha_max whose motion x + [0, α]·d is admissible (cloth

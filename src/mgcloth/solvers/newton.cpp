@@ -35,8 +35,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   Timer timer;
   SolveReport rep;
   VecX g, d, trial;
-  double e = obj.value(x);
-  obj.gradient(x, g);
+  double e = obj.value_and_gradient(x, g);
   double gnorm = g.norm();
   check_finite(m_name, e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
@@ -115,8 +114,7 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       cut = alpha < 1.0;
       x += alpha * d;
       if (problem.project) problem.project(x);
-      e = obj.value(x);
-      obj.gradient(x, g);
+      e = obj.value_and_gradient(x, g);
       gnorm = g.norm();
       check_finite(m_name, e, gnorm, k + 1);
       if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), 1.0});

@@ -65,8 +65,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
   m_max_shift = 0.0;
   int ls_evaluations = 0;
   VecX g, p, trial, g_trial;
-  double e = obj.value(x);
-  obj.gradient(x, g);
+  double e = obj.value_and_gradient(x, g);
   double gnorm = g.norm();
   check_finite(m_name, e, gnorm, 0);
   rep.initial_grad_norm = gnorm;
@@ -79,8 +78,7 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
   // After an update of x: the feasibility projection, then energy and gradient at the new x, and its trace row.
   const auto advance = [&](int k, double step) {
     if (problem.project) problem.project(x);
-    e = obj.value(x);
-    obj.gradient(x, g);
+    e = obj.value_and_gradient(x, g);
     gnorm = g.norm();
     check_finite(m_name, e, gnorm, k + 1);
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), step});
