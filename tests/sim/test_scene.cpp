@@ -106,6 +106,9 @@ TEST(Scene, BadValuesNameTheField) {
   j = minimal();
   j["solver"] = {{"velocity_tol", -0.01}};
   EXPECT_NE(error_of(j).find("solver.velocity_tol: must be"), std::string::npos) << error_of(j);
+  j = minimal();
+  j["solver"] = {{"velocity_rms_tol", -0.01}};
+  EXPECT_NE(error_of(j).find("solver.velocity_rms_tol: must be"), std::string::npos) << error_of(j);
 }
 
 // A velocity tolerance is off unless set, resolves with the scene, and becomes each step's Stop::step_tol.
@@ -116,6 +119,11 @@ TEST(Scene, TheVelocityToleranceIsOffUnlessSetAndRoundTrips) {
   const auto s = sim::parse_scene(j, "scene.json", ".");
   EXPECT_EQ(s.solver.velocity_tol, 0.005);
   EXPECT_EQ(sim::to_json(s)["solver"]["velocity_tol"], 0.005);
+  EXPECT_EQ(s.solver.velocity_rms_tol, 0.0);
+  j["solver"] = {{"velocity_rms_tol", 0.003}};
+  const auto r = sim::parse_scene(j, "scene.json", ".");
+  EXPECT_EQ(r.solver.velocity_rms_tol, 0.003);
+  EXPECT_EQ(sim::to_json(r)["solver"]["velocity_rms_tol"], 0.003);
 }
 
 // A misspelled key used to lose to the missing field it was meant to be ("cloths: a scene needs at least one

@@ -101,6 +101,35 @@ TEST(Simulation, AccuracyCheckMeasuresTheDistanceToTheStepsMinimizer) {
   EXPECT_TRUE(std::isnan(sb[0].true_velocity_error)) << "off unless asked for";
 }
 
+// solver.velocity_rms_tol: each step stops once its Newton decrement puts the mass-weighted RMS velocity error within
+// the tolerance, the estimate is reported whatever the rule, and solvers that measure no decrement are refused.
+TEST(Simulation, AnRmsVelocityToleranceStopsEachStepByTheNewtonDecrement) {
+  sim::Scene scene = shipped("hanging", 400, 1);
+  scene.solver.stop.rel_grad = 0.0;
+  scene.solver.velocity_rms_tol = 1e-3;
+  sim::Simulator a(scene);
+  a.set_accuracy_check(true);
+  for (int k = 0; k < 3; ++k) {
+    const sim::StepStats s = a.step()[0];
+    EXPECT_EQ(s.report.status, "converged");
+    EXPECT_LE(s.velocity_rms_error, 1e-3);
+    EXPECT_GT(s.velocity_rms_error, 0.0);
+    // The vertices' RMS against the step's minimizer (masses nearly uniform on this mesh).
+    EXPECT_LT(s.true_velocity_rms, 2e-3) << "step " << k;
+  }
+  sim::Scene rel = shipped("hanging", 400, 1);
+  sim::Simulator b(rel);
+  EXPECT_TRUE(std::isfinite(b.step()[0].velocity_rms_error)) << "reported under rel_grad too";
+  scene.solver.name = "gs-chebyshev";
+  sim::Simulator c(scene);
+  try {
+    c.step();
+    ADD_FAILURE() << "gs-chebyshev measures no Newton decrement";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("solver.velocity_rms_tol"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Simulation, ResumeReproducesAnUninterruptedRun) {
   const fs::path root = fs::temp_directory_path() / ("mgcloth_resume_test_" + std::to_string(::getpid()));
   fs::remove_all(root);

@@ -58,8 +58,9 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   j.erase("frames");
   j.erase("output");
   j.erase("threads");
-  // Off, the velocity tolerance stops solves as every run before the key existed did: their checkpoints resume.
-  if (j["solver"]["velocity_tol"] == 0.0) j["solver"].erase("velocity_tol");
+  // Off, the velocity tolerances stop solves as every run before the keys existed did: their checkpoints resume.
+  for (const char* key : {"velocity_tol", "velocity_rms_tol"})
+    if (j["solver"][key] == 0.0) j["solver"].erase(key);
   // Likewise the smoother's double precision, the only one before the key existed.
   if (Json& p = j["solver"]["params"]; p.is_object() && p.value("smoother_precision", "") == "double") p.erase("smoother_precision");
   // The scene names an obstacle mesh by its file: what the file holds is part of the scene too, so that a run does
@@ -173,7 +174,7 @@ void Recorder::check_glb_size(const Simulator& sim) const {
 std::string Recorder::stats_header() {
   return "frame,step,sim_time,solver,iterations,energy,grad_norm,wall_ms,cloth,rel_grad,status,solve_ms,projected,"
          "contact_pairs,min_distance,intersections,contact_detection_ms,check_ms,obstacle_rounds,seam_gap,velocity_error,"
-         "true_velocity_error,true_velocity_rms";
+         "velocity_rms_error,true_velocity_error,true_velocity_rms";
 }
 
 std::string Recorder::stats_row(const StepStats& s) {
@@ -187,11 +188,11 @@ std::string Recorder::stats_row(const StepStats& s) {
   // Infinite where no estimate was possible (fewer than three moving iterations, steps that did not contract).
   const std::string verr = std::isnan(s.velocity_error) ? "" : fmt::format("{:.3e}", s.velocity_error);
   const auto checked = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.3e}", v); };
-  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
+  return fmt::format("{},{},{:.9g},{},{},{:.17g},{:.9g},{:.3f},{},{:.3e},{},{:.3f},{},{},{},{},{},{},{},{},{},{},{},{}", s.frame, s.step,
                      s.sim_time, s.solver, r.iterations, r.energy, r.grad_norm, s.wall_ms, s.body,
                      r.initial_grad_norm > 0 ? r.grad_norm / r.initial_grad_norm : 0.0, r.status, r.wall_ms, s.projected,
                      pairs, dmin, crossings, ms(s.contact_detection_ms), ms(s.check_ms), s.obstacle_rounds, gap, verr,
-                     checked(s.true_velocity_error), checked(s.true_velocity_rms));
+                     checked(s.velocity_rms_error), checked(s.true_velocity_error), checked(s.true_velocity_rms));
 }
 
 fs::path Recorder::frame_path(const fs::path& dir, int frame) { return dir / fmt::format("frame_{:05d}.obj", frame); }

@@ -494,6 +494,7 @@ Scene parse_scene(const Json& json, const std::string& file, const fs::path& bas
     s.solver.stop.rel_grad = so->number("rel_grad", s.solver.stop.rel_grad, 0.0, 1.0);
     s.solver.stop.abs_grad = so->number("abs_grad", s.solver.stop.abs_grad, 0.0);
     s.solver.velocity_tol = so->number("velocity_tol", s.solver.velocity_tol, 0.0);
+    s.solver.velocity_rms_tol = so->number("velocity_rms_tol", s.solver.velocity_rms_tol, 0.0);
     s.solver.stop.max_iters = so->integer("max_iters", s.solver.stop.max_iters, 1, 1'000'000);
     s.solver.stop.max_seconds = so->number("max_seconds", 1e30, 0.0);
     if (so->has("params")) {
@@ -714,6 +715,7 @@ Json to_json(const Scene& s) {
                  {"rel_grad", s.solver.stop.rel_grad},
                  {"abs_grad", s.solver.stop.abs_grad},
                  {"velocity_tol", s.solver.velocity_tol},
+                 {"velocity_rms_tol", s.solver.velocity_rms_tol},
                  {"max_iters", s.solver.stop.max_iters},
                  {"max_seconds", std::isfinite(s.solver.stop.max_seconds) ? s.solver.stop.max_seconds : 1e30},
                  {"params", solvers::resolved_params(s.solver, s.file, "solver.params")}};

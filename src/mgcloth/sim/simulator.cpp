@@ -8,6 +8,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 
 namespace mgcloth::sim {
@@ -179,6 +180,17 @@ double widest_seam_gap(const ClothBody& c) {
       for (size_t b = a + 1; b < g.size(); ++b) gap = std::max(gap, (x.col(g[a]) - x.col(g[b])).norm());
   return gap;
 }
+/// The mass of a group's cloths (kg), the M of Stop::decrement_tol = M·velocity_rms_tol²; 0 when a body of the
+/// group is not a cloth (a shell's unknowns carry no inertia term, so the decrement bounds nothing of them).
+double cloth_mass(const bodies::Assembly& g) {
+  double m = 0.0;
+  for (const Body* b : g.bodies()) {
+    const auto* c = dynamic_cast<const ClothBody*>(b);
+    if (!c) return 0.0;
+    m += c->mass().sum();
+  }
+  return m;
+}
 }  // namespace
 
 size_t Simulator::body_index(const std::string& name) const {
@@ -253,6 +265,16 @@ solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_fac
                                  "not show how far it is from the solution; use rel_grad with it, or a multilevel or "
                                  "Newton solver (fmg, newton, newton-mg, ...) with velocity_tol",
                                  m_scene.file, solver.name()));
+  if (m_scene.solver.velocity_rms_tol > 0.0 && !solver.estimates_decrement())
+    throw InputError(fmt::format("{}: solver.velocity_rms_tol: solver \"{}\" does not solve the Newton system of the "
+                                 "Hessian, so it measures no Newton decrement; use a Newton or multigrid solver (fmg, "
+                                 "newton, newton-mg, newton-amg, newton-direct) with velocity_rms_tol, or velocity_tol "
+                                 "or rel_grad with this one",
+                                 m_scene.file, solver.name()));
+  if (m_scene.solver.velocity_rms_tol > 0.0 && !(cloth_mass(group) > 0.0))
+    throw InputError(fmt::format("{}: solver.velocity_rms_tol: {} is not a group of cloths with mass (a shell's "
+                                 "unknowns carry no inertia term); use velocity_tol or rel_grad",
+                                 m_scene.file, group_label(group)));
   return problem;
 }
 
@@ -284,6 +306,8 @@ std::vector<StepStats> Simulator::step() {
     };
     solvers::Stop stop = m_scene.solver.stop;
     stop.step_tol = m_scene.solver.velocity_tol * h;
+    const double mass = cloth_mass(group);
+    stop.decrement_tol = mass * m_scene.solver.velocity_rms_tol * m_scene.solver.velocity_rms_tol;
     s.report = solve(m_record_trace ? &s.trace : nullptr, stop);
     // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
     // step is solved again from there, until they are where their motion puts them.
@@ -304,8 +328,10 @@ std::vector<StepStats> Simulator::step() {
       s.report.status = more.status;
       s.report.grad_norm = more.grad_norm;
       s.report.step_error = more.step_error;
+      if (!std::isnan(more.decrement)) s.report.decrement = more.decrement;
     }
     s.velocity_error = s.report.step_error / h;
+    if (mass > 0.0) s.velocity_rms_error = std::sqrt(s.report.decrement / mass);
     if (!m_checkers.empty()) check_accuracy(g, problem, x, h, s);
     const VecX before = x;
     VecX v;

@@ -20,6 +20,9 @@ struct SolverConfig {
   /// Stop a step also once no vertex's velocity is estimated to be off by more than this (m/s; 0: off): the
   /// simulator sets Stop::step_tol = velocity_tol · h for each step of length h.
   double velocity_tol = 0.0;
+  /// Stop a step also once the mass-weighted RMS of the velocity error, from the model's Newton decrement, is at most
+  /// this (m/s; 0: off): the simulator sets Stop::decrement_tol = M·velocity_rms_tol² with M the step's cloth mass.
+  double velocity_rms_tol = 0.0;
 };
 
 /// Names of the solvers this build provides.

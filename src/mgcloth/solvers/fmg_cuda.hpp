@@ -24,6 +24,8 @@ class FmgCuda final : public NonlinearSolver {
   static FmgCycleParams device_cycle();
   std::string name() const override { return m_name; }
   bool needs_hierarchy() const override { return true; }
+  /// Its one direction per cycle is the V-cycle from the finest level, whose c·r is the Newton decrement (as "fmg").
+  bool estimates_decrement() const override { return m_cycle.line_search; }
   /// The device pipeline has kernels for the elastic terms only.
   std::vector<physics::EnergyForm> energy_forms() const override { return {physics::EnergyForm::Elastic}; }
   /// Counters: those of "fmg" (directions, energy evaluations, matrix updates, time per phase) plus setup_ms.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <type_traits>
 
 namespace mgcloth::solvers {
@@ -171,6 +172,9 @@ class Solve {
   // Stop::step_tol: the cycles' steps, and whether the motion's limit (contact) cut one of this cycle's moves short.
   StepErrorEstimate step_error{stop.step_tol};
   bool cycle_cut = false, marked = false;
+  // Stop::decrement_tol: c·r of the last V-cycle from the finest level, and whether it met the tolerance.
+  double decrement = std::numeric_limits<double>::quiet_NaN();
+  bool decrement_met = false;
 };
 
 // Projective Dynamics (§4.4): the full correction, Chebyshev-weighted, no line search.
@@ -305,6 +309,10 @@ bool Solve::line_search(Index level, double p_slope) {
 bool Solve::direction(const FmgStage& st) {
   ++n.directions;
   const double cr = b.correction(st.level, st.linear, st.sweeps, V::R, V::D);
+  if (st.level == 0 && st.linear) {
+    decrement = std::max(0.0, cr);
+    decrement_met = stop.decrement_tol > 0.0 && decrement <= stop.decrement_tol;
+  }
   // Theorem 4.1/4.2: the smoothing operator is SPD, so c·r > 0 unless the (masked) residual vanishes.
   if (!(cr > 0.0)) {
     ++n.rejected;
@@ -453,6 +461,11 @@ SolveReport Solve::run(const std::vector<FmgStage>& stages) {
         break;
       }
     }
+    // The decrement was measured at this cycle's start point; its step was taken all the same.
+    if (!done && decrement_met) {
+      rep.status = "converged";
+      done = true;
+    }
     if (!prm.line_search) e = b.energy(V::X);
     ++n.cycles;
     if (trace) trace->push_back({k + 1, e, gnorm, timer.ms(), last_alpha});
@@ -466,6 +479,7 @@ SolveReport Solve::run(const std::vector<FmgStage>& stages) {
   if (marked) step_error.record(b.max_distance_from_mark(V::X), cycle_cut);
   finish_report(rep, k, e, gnorm, target, timer.ms());
   rep.step_error = step_error.error();
+  rep.decrement = decrement;
   rep.counters = {{"directions", static_cast<double>(n.directions)},
                   {"rejected_directions", static_cast<double>(n.rejected)},
                   {"energy_evals", static_cast<double>(n.energy_evals)},

@@ -66,9 +66,10 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
   int k = 0;
   StepTracker steps(stop);
   bool cut = false;  // the last step was cut short by the objective's max_step (contact)
+  bool decrement_met = false;
   for (; k < stop.max_iters; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
-    if (steps.converged(x, cut)) {
+    if (steps.converged(x, cut) || decrement_met) {
       rep.status = "converged";
       break;
     }
@@ -109,6 +110,10 @@ SolveReport Newton::minimize(Problem& problem, VecX& x, const Stop& stop, Trace*
       }
     }
     double slope = g.dot(d);
+    if (estimates_decrement() && slope < 0.0) {
+      rep.decrement = -slope;
+      decrement_met = stop.decrement_tol > 0.0 && -slope <= stop.decrement_tol;
+    }
     if (!m_params.use_line_search) {
       const double alpha = obj.max_step(x, d, 1.0);
       cut = alpha < 1.0;

@@ -39,6 +39,8 @@ class Newton final : public NonlinearSolver {
     return NonlinearSolver::energy_forms();
   }
   bool needs_hierarchy() const override { return solvers::needs_hierarchy(m_params.linear.method); }
+  /// −∇E·d with H d = −∇E solved to the forcing tolerance; not for Projective Dynamics' constant matrix.
+  bool estimates_decrement() const override { return !m_params.constant_matrix && !m_params.projective; }
   /// Linear iterations (CG iterations or V-cycles; 1 per direct solve) summed over the last minimize().
   long linear_iterations() const { return m_linear_iterations; }
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;

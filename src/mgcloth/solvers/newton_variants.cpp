@@ -89,14 +89,19 @@ SolveReport ExactNewton::minimize(Problem& problem, VecX& x, const Stop& stop, T
   int k = 0;
   StepTracker steps(stop);
   bool cut = false;  // the last step was cut short by the objective's max_step (contact)
+  bool decrement_met = false;
   for (; k < max_iters; ++k) {
     if (should_stop(gnorm, target, timer.seconds(), stop, rep)) break;
-    if (steps.converged(x, cut)) {
+    if (steps.converged(x, cut) || decrement_met) {
       rep.status = "converged";
       break;
     }
     cut = false;
     direction(obj, x, g, p);
+    if (const double slope = g.dot(p); slope < 0.0) {
+      rep.decrement = -slope;
+      decrement_met = stop.decrement_tol > 0.0 && -slope <= stop.decrement_tol;
+    }
     if (m_params.mode != ExactNewtonMode::LineSearch) {
       const double full = linearized ? 1.0 : m_params.alpha;
       const double alpha = obj.max_step(x, p, full);

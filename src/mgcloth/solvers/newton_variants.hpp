@@ -31,6 +31,8 @@ class ExactNewton final : public NonlinearSolver {
   explicit ExactNewton(ExactNewtonParams params = {}, std::string name = "");
   std::string name() const override { return m_name; }
   bool supports_step_limits() const override { return true; }
+  /// −∇E·p of its Newton direction (the exact Hessian, shifted where it is not positive definite).
+  bool estimates_decrement() const override { return true; }
   /// Report counters: hessian_assemblies, factorizations, cholmod_fallbacks, max_shift, steepest_descent_steps,
   /// line_search_evaluations.
   SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) override;

@@ -55,6 +55,13 @@ struct FmgParams {
   }
 };
 
+/// Whether an FMG with these settings measures the Newton decrement (NonlinearSolver::estimates_decrement): the
+/// Hessian model with a line search (not Projective Dynamics' matrix), and a linear V-cycle from the finest level
+/// among its directions (not single-level, not residual levels).
+inline bool fmg_estimates_decrement(const FmgParams& p) {
+  return !p.single_level && !p.projective && p.line_search && p.residual_levels == 0;
+}
+
 /// The nonlinear full multigrid of Wang et al. 2018 (§4.2, Fig. 5). Every smoothed correction on level h,
 /// c_h = Ã_h⁻¹ I_0^h r_0, prolonged to the finest level, is a search direction for the finest-level objective:
 /// it is scaled by a backtracking line search on E, x is updated, the contact projection applied (§4.5), and the
@@ -72,6 +79,9 @@ class NonlinearFMG final : public NonlinearSolver {
   bool supports_step_limits() const override { return !m_params.projective; }
   bool needs_hierarchy() const override { return !m_params.single_level; }
   bool estimates_step_error() const override { return !m_params.single_level; }
+  /// The V-cycle from the finest level is each cycle's direction d = B r, so c·r = rᵀBr is the Newton decrement of
+  /// the model with B for A⁻¹ (within a factor 1 − ρ of it for a V-cycle contracting by ρ).
+  bool estimates_decrement() const override { return fmg_estimates_decrement(m_params); }
   std::vector<physics::EnergyForm> energy_forms() const override {
     if (m_params.projective) return {physics::EnergyForm::Projective};
     return NonlinearSolver::energy_forms();

@@ -32,6 +32,13 @@ struct Stop {
   /// estimate is StepErrorEstimate's; the simulator sets step_tol = velocity_tol · h, so that a solve stops once no
   /// vertex's velocity is off by more than velocity_tol (m/s).
   double step_tol = 0.0;
+  /// Or once the model's Newton decrement λ² = ∇Eᵀ A⁻¹ ∇E measured at an iterate (A the solver's Hessian model, A⁻¹
+  /// the solver's own inverse of it: a factorization, PCG, or FMG's V-cycle) is at most decrement_tol (J; 0: never).
+  /// The iteration that measured it still takes its step, so the result is no worse than that iterate. E(x) − E* ≈
+  /// λ²/2, and where A ≥ M/h² (an implicit step's model: inertia plus PSD-projected forces) the kinetic energy of the
+  /// velocity error is at most that: the simulator sets decrement_tol = M·velocity_rms_tol² so that the
+  /// mass-weighted RMS of the velocity error is at most velocity_rms_tol (m/s).
+  double decrement_tol = 0.0;
   int max_iters = 100;
   double max_seconds = kInf;
   /// Stop with status "interrupted" once mgcloth::interrupted() (SIGINT or SIGTERM under the CLI's handler).
@@ -65,6 +72,9 @@ struct SolveReport {
   /// the stop rule; infinite where no estimate was possible (fewer than three moving iterations, steps not
   /// contracting, the last step cut short by contact); NaN where the solver makes none.
   double step_error = std::numeric_limits<double>::quiet_NaN();
+  /// The last Newton decrement λ² (Stop::decrement_tol) the solve measured, at its last iterate but one; NaN where the
+  /// solver measures none (NonlinearSolver::estimates_decrement) or made no iteration.
+  double decrement = std::numeric_limits<double>::quiet_NaN();
   /// Solver-specific counters of the solve (e.g. line-search evaluations, time per phase), for statistics.
   std::vector<std::pair<std::string, double>> counters;
 };
@@ -93,6 +103,10 @@ class NonlinearSolver {
   /// show how slowly it removes smooth errors (gs-chebyshev stopped with an estimate of 1e-3 m/s and 3.3e-2 m/s
   /// left, tests/solvers/test_step_error.cpp), so the simulator refuses a velocity tolerance for it.
   virtual bool estimates_step_error() const { return true; }
+  /// Whether SolveReport::decrement, and so Stop::decrement_tol, is measured: a solver whose iterations solve (or
+  /// approximate by a V-cycle from the finest level) the Newton system of the true Hessian model. Projective Dynamics'
+  /// constant matrix, single-level smoothers and trust-region models bounded by their radius do not.
+  virtual bool estimates_decrement() const { return false; }
   /// Minimizes problem.objective from x (updated in place). Throws SolveError when the solve diverges
   /// (non-finite energy or gradient, no descent possible far from a minimum).
   virtual SolveReport minimize(Problem& problem, VecX& x, const Stop& stop, Trace* trace) = 0;
