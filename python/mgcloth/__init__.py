@@ -257,8 +257,8 @@ class Simulation(_mgcloth.Simulator):
     dt: seconds per frame (the scene's "time_step"); substeps: implicit-Euler steps per frame; frames: the length
         of run(); gravity: (3,) m/s^2; threads: worker threads (0: all cores).
     solver: a name from mgcloth.solver_names() (a different name than the scene's drops the scene's solver params,
-        as `mgcloth run --solver` does); solver_params: its parameters; rel_grad, velocity_tol (m/s), velocity_rms_tol (m/s), max_iters: its stop
-        criterion.
+        as `mgcloth run --solver` does); solver_params: its parameters; rel_grad, velocity_tol (m/s),
+        velocity_rms_tol (m/s), max_iters: its stop criterion.
     energy_form: "elastic" or "projective", the form of the cloth energy the steps minimize (the pd-* solvers need
         "projective").
     contact, cloth_contact, hierarchy: scene-format dicts of those blocks (cloth_contact={} turns cloth contact on
@@ -270,9 +270,9 @@ class Simulation(_mgcloth.Simulator):
     """
 
     def __init__(self, scene=None, *, cloths=(), obstacles=(), dt=None, substeps=None, frames=None, gravity=None,
-                 threads=None, solver=None, solver_params=None, rel_grad=None, velocity_tol=None, velocity_rms_tol=None,
-                 max_iters=None, contact=None, cloth_contact=None, hierarchy=None, energy_form=None, out=None, formats=None, trace=False,
-                 resume=False):
+                 threads=None, solver=None, solver_params=None, rel_grad=None, velocity_tol=None,
+                 velocity_rms_tol=None, max_iters=None, contact=None, cloth_contact=None, hierarchy=None,
+                 energy_form=None, out=None, formats=None, trace=False, resume=False):
         d, file, base_dir = _resolve_scene(scene)
         if not isinstance(d.get("cloths", []), (list, tuple)) or not isinstance(d.get("obstacles", []), (list, tuple)):
             # The parser names what is wrong; nothing to merge into.
