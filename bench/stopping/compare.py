@@ -16,6 +16,9 @@ median, 90th percentile and largest value over the steps, the RMS error's median
   /usr/bin/python3 bench/stopping/compare.py --cli build/bin/mgcloth --out /tmp/stopping \\
       --rules rel=1e-3,rel=1e-2,vel=0.1,vel=0.03,vel=0.01
 
+With --solver NAME the rules run with that solver (e.g. one that measures no Newton decrement, which stops by the
+gradient's bound under rms=VALUE); --max-iters sets their iteration limit.
+
 Needs numpy. Runs already in --out are reused (delete a folder to redo it).
 """
 import argparse
@@ -36,7 +39,7 @@ def read_obj(path):
         return np.array([[float(t) for t in line.split()[1:4]] for line in f if line.startswith("v ")])
 
 
-def run(cli, src, out, name, rule, value, frames, check):
+def run(cli, src, out, name, rule, value, frames, check, solver_name=None, max_iters=200):
     folder = os.path.join(out, name)
     if os.path.exists(os.path.join(folder, f"frame_{frames:05d}.obj")):
         return folder
@@ -45,7 +48,10 @@ def run(cli, src, out, name, rule, value, frames, check):
     s["frames"] = frames
     solver = s.setdefault("solver", {})
     solver["rel_grad"] = value if rule == "rel" else 1e-8
-    solver["max_iters"] = 500 if rule == "ref" else 200
+    solver["max_iters"] = 500 if rule == "ref" else max_iters
+    if solver_name and rule != "ref":
+        solver["name"] = solver_name
+        solver.pop("params", None)
     if rule == "vel":
         solver["velocity_tol"] = value
     if rule == "rms":
@@ -99,6 +105,8 @@ def main():
     ap.add_argument("--rules", default="rel=1e-3,vel=0.01", help="rel=VALUE, vel=VALUE or rms=VALUE (m/s), comma-separated")
     ap.add_argument("--reference", action="store_true", help="also compare frames with a rel_grad 1e-8 run")
     ap.add_argument("--no-check", action="store_true", help="runs without --check-accuracy (frames only)")
+    ap.add_argument("--solver", help="run the rules with this solver instead of the scene's (the reference keeps it)")
+    ap.add_argument("--max-iters", type=int, default=200, help="the rules' max_iters")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     check = not a.no_check
@@ -116,7 +124,9 @@ def main():
         print("|".join(["---"] * len(head)))
         for spec in a.rules.split(","):
             rule, value = spec.split("=")
-            folder = run(a.cli, SCENES[key], a.out, f"{key}_{rule}{value}", rule, float(value), a.frames, check)
+            prefix = f"{key}_{a.solver}_" if a.solver else f"{key}_"
+            folder = run(a.cli, SCENES[key], a.out, f"{prefix}{rule}{value}", rule, float(value), a.frames, check,
+                         a.solver, a.max_iters)
             label = {"rel": f"rel_grad {value}", "vel": f"velocity_tol {value} m/s",
                      "rms": f"velocity_rms_tol {value} m/s"}[rule]
             print(f"{label} | {row(folder, ref, a.frames)}", flush=True)

@@ -140,6 +140,9 @@ TEST_F(BadInput, SolverThatCannotWorkOnTheBodiesFailsBeforeAnyOutput) {
   EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + scene + " -q --solver rmtr --out " + out()),
                          {"scene.json: cloths[0] (\"cloth0\"): solver rmtr needs a mesh hierarchy of at least two "
                           "levels", "hierarchy.max_coarse_vertices (400)", "(fmg, newton-direct, tr-dogleg"}));
+  EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + scene + " -q --solver fas --out " + out()),
+                         {"scene.json: cloths[0] (\"cloth0\"): solver fas needs a mesh hierarchy of at least two "
+                          "levels"}));
   const auto shell = write("shell.json", R"({ "frames": 1, "shells": [ { "name": "sheet", "level": 1,
     "control_mesh": { "generator": "rectangle", "cells_u": 2, "cells_v": 2 } } ], "solver": { "name": "rmtr" } })");
   EXPECT_TRUE(fails_with(mgcloth::test::run_cli("run " + shell + " -q --out " + out()),

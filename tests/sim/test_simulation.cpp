@@ -102,7 +102,8 @@ TEST(Simulation, AccuracyCheckMeasuresTheDistanceToTheStepsMinimizer) {
 }
 
 // solver.velocity_rms_tol: each step stops once its Newton decrement puts the mass-weighted RMS velocity error within
-// the tolerance, the estimate is reported whatever the rule, and solvers that measure no decrement are refused.
+// the tolerance, the estimate is reported whatever the rule, and solvers that measure no decrement stop by the
+// gradient's bound of the same error.
 TEST(Simulation, AnRmsVelocityToleranceStopsEachStepByTheNewtonDecrement) {
   sim::Scene scene = shipped("hanging", 400, 1);
   scene.solver.stop.rel_grad = 0.0;
@@ -120,13 +121,20 @@ TEST(Simulation, AnRmsVelocityToleranceStopsEachStepByTheNewtonDecrement) {
   sim::Scene rel = shipped("hanging", 400, 1);
   sim::Simulator b(rel);
   EXPECT_TRUE(std::isfinite(b.step()[0].velocity_rms_error)) << "reported under rel_grad too";
-  scene.solver.name = "gs-chebyshev";
-  sim::Simulator c(scene);
-  try {
-    c.step();
-    ADD_FAILURE() << "gs-chebyshev measures no Newton decrement";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("solver.velocity_rms_tol"), std::string::npos) << e.what();
+  // Solvers that measure no decrement stop where the gradient bounds the error, a stricter rule: the same tolerance,
+  // met with room to spare (a single-level smoother takes some 700-1,000 sweeps per step for it).
+  for (const char* name : {"gs-chebyshev", "tr"}) {
+    scene.solver.name = name;
+    scene.solver.stop.max_iters = 5000;
+    sim::Simulator c(scene);
+    c.set_accuracy_check(true);
+    for (int k = 0; k < 2; ++k) {
+      const sim::StepStats s = c.step()[0];
+      EXPECT_EQ(s.report.status, "converged") << name << " step " << k;
+      EXPECT_LE(s.velocity_rms_error, 1e-3) << name << " step " << k;
+      EXPECT_GT(s.velocity_rms_error, 0.0) << name << " step " << k;
+      EXPECT_LT(s.true_velocity_rms, 1e-3) << name << " step " << k;
+    }
   }
 }
 

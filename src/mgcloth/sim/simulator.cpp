@@ -191,6 +191,24 @@ double cloth_mass(const bodies::Assembly& g) {
   }
   return m;
 }
+/// The smallest vertex mass of a group's cloths (kg; 0 when a body of the group is not a cloth).
+double min_vertex_mass(const bodies::Assembly& g) {
+  double m = std::numeric_limits<double>::infinity();
+  for (const Body* b : g.bodies()) {
+    const auto* c = dynamic_cast<const ClothBody*>(b);
+    if (!c) return 0.0;
+    if (c->mass().size() > 0) m = std::min(m, c->mass().minCoeff());
+  }
+  return std::isfinite(m) ? m : 0.0;
+}
+/// What a gradient norm |g| guarantees of the mass-weighted RMS velocity error, for solvers that measure no Newton
+/// decrement: where the step's Hessian is at least its inertia M/h², the minimizer is within ‖g‖_{(M/h²)⁻¹} of x in
+/// the M/h² norm, so the velocity error's ‖δv‖_M ≤ h‖g‖_{M⁻¹} ≤ h|g|/√m_min, and its RMS over the mass M_c is at most
+/// h|g|/√(m_min·M_c). Infinite when the group has no mass.
+double rms_velocity_bound(double grad_norm, double h, double mass, double min_mass) {
+  return mass > 0.0 && min_mass > 0.0 ? h * grad_norm / std::sqrt(min_mass * mass)
+                                      : std::numeric_limits<double>::infinity();
+}
 }  // namespace
 
 size_t Simulator::body_index(const std::string& name) const {
@@ -265,12 +283,6 @@ solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_fac
                                  "not show how far it is from the solution; use rel_grad with it, or a multilevel or "
                                  "Newton solver (fmg, newton, newton-mg, ...) with velocity_tol",
                                  m_scene.file, solver.name()));
-  if (m_scene.solver.velocity_rms_tol > 0.0 && !solver.estimates_decrement())
-    throw InputError(fmt::format("{}: solver.velocity_rms_tol: solver \"{}\" does not solve the Newton system of the "
-                                 "Hessian, so it measures no Newton decrement; use a Newton or multigrid solver (fmg, "
-                                 "newton, newton-mg, newton-amg, newton-direct) with velocity_rms_tol, or velocity_tol "
-                                 "or rel_grad with this one",
-                                 m_scene.file, solver.name()));
   if (m_scene.solver.velocity_rms_tol > 0.0 && !(cloth_mass(group) > 0.0))
     throw InputError(fmt::format("{}: solver.velocity_rms_tol: {} is not a group of cloths with mass (a shell's "
                                  "unknowns carry no inertia term); use velocity_tol or rel_grad",
@@ -306,8 +318,13 @@ std::vector<StepStats> Simulator::step() {
     };
     solvers::Stop stop = m_scene.solver.stop;
     stop.step_tol = m_scene.solver.velocity_tol * h;
-    const double mass = cloth_mass(group);
-    stop.decrement_tol = mass * m_scene.solver.velocity_rms_tol * m_scene.solver.velocity_rms_tol;
+    const double mass = cloth_mass(group), min_mass = min_vertex_mass(group);
+    const double rms_tol = m_scene.solver.velocity_rms_tol;
+    stop.decrement_tol = mass * rms_tol * rms_tol;
+    // A solver that measures no decrement stops where the gradient bounds the error (rms_velocity_bound): a gradient
+    // norm of rms_tol·√(m_min·M)/h. A stricter rule than the decrement's (the bound holds for the whole Hessian's
+    // stiffness, not only its inertia), but one every solver checks.
+    if (rms_tol > 0.0 && !solver.estimates_decrement()) stop.abs_grad = std::max(stop.abs_grad, rms_tol * std::sqrt(min_mass * mass) / h);
     s.report = solve(m_record_trace ? &s.trace : nullptr, stop);
     // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
     // step is solved again from there, until they are where their motion puts them.
@@ -331,7 +348,12 @@ std::vector<StepStats> Simulator::step() {
       if (!std::isnan(more.decrement)) s.report.decrement = more.decrement;
     }
     s.velocity_error = s.report.step_error / h;
-    if (mass > 0.0) s.velocity_rms_error = std::sqrt(s.report.decrement / mass);
+    if (!solver.estimates_decrement()) {
+      const double bound = rms_velocity_bound(s.report.grad_norm, h, mass, min_mass);
+      if (std::isfinite(bound)) s.velocity_rms_error = bound;
+    } else if (mass > 0.0) {
+      s.velocity_rms_error = std::sqrt(s.report.decrement / mass);
+    }
     if (!m_checkers.empty()) check_accuracy(g, problem, x, h, s);
     const VecX before = x;
     VecX v;
