@@ -324,7 +324,8 @@ std::vector<StepStats> Simulator::step() {
     // A solver that measures no decrement stops where the gradient bounds the error (rms_velocity_bound): a gradient
     // norm of rms_tol·√(m_min·M)/h. A stricter rule than the decrement's (the bound holds for the whole Hessian's
     // stiffness, not only its inertia), but one every solver checks.
-    if (rms_tol > 0.0 && !solver.estimates_decrement()) stop.abs_grad = std::max(stop.abs_grad, rms_tol * std::sqrt(min_mass * mass) / h);
+    if (rms_tol > 0.0 && !solver.estimates_decrement())
+      stop.abs_grad = std::max(stop.abs_grad, rms_tol * std::sqrt(min_mass * mass) / h);
     s.report = solve(m_record_trace ? &s.trace : nullptr, stop);
     // Mesh obstacles the start point's motion could not take all the way go on from the solve's result, and the
     // step is solved again from there, until they are where their motion puts them.
