@@ -262,8 +262,9 @@ void bind_simulator(py::module_& m) {
                     "The solver's estimate of the largest per-vertex velocity error at the end of the step (m/s; inf: "
                     "no estimate possible, NaN: none made).")
       .def_readonly("velocity_rms_error", &sim::StepStats::velocity_rms_error,
-                    "The mass-weighted RMS velocity error that the solver's Newton decrement bounds, sqrt(lambda^2 / M) "
-                    "(m/s; NaN: the solver measures no decrement).")
+                    "The mass-weighted RMS velocity error that the solver's Newton decrement estimates, "
+                    "sqrt(lambda^2 / M) (m/s); for solvers that measure no decrement, the gradient's bound of it, "
+                    "h |grad E| / sqrt(m_min M).")
       .def_readonly("true_velocity_error", &sim::StepStats::true_velocity_error,
                     "With check_accuracy on: the largest per-vertex distance between the step's result and its own "
                     "minimizer (Newton + CHOLMOD solved on from the result), over the time step (m/s; NaN: not "

@@ -180,26 +180,22 @@ double widest_seam_gap(const ClothBody& c) {
       for (size_t b = a + 1; b < g.size(); ++b) gap = std::max(gap, (x.col(g[a]) - x.col(g[b])).norm());
   return gap;
 }
-/// The mass of a group's cloths (kg), the M of Stop::decrement_tol = M·velocity_rms_tol²; 0 when a body of the
-/// group is not a cloth (a shell's unknowns carry no inertia term, so the decrement bounds nothing of them).
-double cloth_mass(const bodies::Assembly& g) {
-  double m = 0.0;
+/// The cloth mass of a group (kg), the M of Stop::decrement_tol = M·velocity_rms_tol², and its smallest vertex mass;
+/// both 0 when a body of the group is not a cloth (a shell's unknowns carry no inertia term, so the decrement bounds
+/// nothing of them).
+struct ClothMass {
+  double total = 0.0, smallest = 0.0;
+};
+ClothMass cloth_mass(const bodies::Assembly& g) {
+  ClothMass m{0.0, std::numeric_limits<double>::infinity()};
   for (const Body* b : g.bodies()) {
     const auto* c = dynamic_cast<const ClothBody*>(b);
-    if (!c) return 0.0;
-    m += c->mass().sum();
+    if (!c) return {};
+    m.total += c->mass().sum();
+    if (c->mass().size() > 0) m.smallest = std::min(m.smallest, c->mass().minCoeff());
   }
+  if (!std::isfinite(m.smallest)) m.smallest = 0.0;
   return m;
-}
-/// The smallest vertex mass of a group's cloths (kg; 0 when a body of the group is not a cloth).
-double min_vertex_mass(const bodies::Assembly& g) {
-  double m = std::numeric_limits<double>::infinity();
-  for (const Body* b : g.bodies()) {
-    const auto* c = dynamic_cast<const ClothBody*>(b);
-    if (!c) return 0.0;
-    if (c->mass().size() > 0) m = std::min(m, c->mass().minCoeff());
-  }
-  return std::isfinite(m) ? m : 0.0;
 }
 /// What a gradient norm |g| guarantees of the mass-weighted RMS velocity error, for solvers that measure no Newton
 /// decrement: where the step's Hessian is at least its inertia M/h², the minimizer is within ‖g‖_{(M/h²)⁻¹} of x in
@@ -283,7 +279,7 @@ solvers::Problem Simulator::prepare_problem(size_t g, VecX& x0, double* load_fac
                                  "not show how far it is from the solution; use rel_grad with it, or a multilevel or "
                                  "Newton solver (fmg, newton, newton-mg, ...) with velocity_tol",
                                  m_scene.file, solver.name()));
-  if (m_scene.solver.velocity_rms_tol > 0.0 && !(cloth_mass(group) > 0.0))
+  if (m_scene.solver.velocity_rms_tol > 0.0 && !(cloth_mass(group).total > 0.0))
     throw InputError(fmt::format("{}: solver.velocity_rms_tol: {} is not a group of cloths with mass (a shell's "
                                  "unknowns carry no inertia term); use velocity_tol or rel_grad",
                                  m_scene.file, group_label(group)));
@@ -318,7 +314,8 @@ std::vector<StepStats> Simulator::step() {
     };
     solvers::Stop stop = m_scene.solver.stop;
     stop.step_tol = m_scene.solver.velocity_tol * h;
-    const double mass = cloth_mass(group), min_mass = min_vertex_mass(group);
+    const ClothMass cm = cloth_mass(group);
+    const double mass = cm.total, min_mass = cm.smallest;
     const double rms_tol = m_scene.solver.velocity_rms_tol;
     stop.decrement_tol = mass * rms_tol * rms_tol;
     // A solver that measures no decrement stops where the gradient bounds the error (rms_velocity_bound): a gradient

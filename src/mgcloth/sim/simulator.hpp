@@ -46,9 +46,10 @@ struct StepStats {
   double velocity_error = std::numeric_limits<double>::quiet_NaN();
   /// The mass-weighted RMS of the velocity error that the solver's Newton decrement estimates, sqrt(λ²/M) with M the
   /// step's cloth mass (SolveReport::decrement; its kinetic energy ½Mv² is at most E − E* ≈ λ²/2), m/s, whatever the
-  /// stop rule; NaN where the solver measures no decrement. Measured at the last iterate but one, whose step was
-  /// then taken. An estimate of the model, not of the cloth: the true error was 0.8-8x it in the median step of the
-  /// scenes measured, up to 23x (bench/RESULTS.md, "Stopping by the Newton decrement").
+  /// stop rule. Measured at the last iterate but one, whose step was then taken. An estimate of the model, not of the
+  /// cloth: the true error was 0.8-8x it in the median step of the scenes measured, up to 23x (bench/RESULTS.md,
+  /// "Stopping by the Newton decrement"). For a solver that measures no decrement: the gradient's bound of the same
+  /// error at the last iterate, h|∇E|/√(m_min·M) (at least 1.9x the true error where measured); NaN without cloth mass.
   double velocity_rms_error = std::numeric_limits<double>::quiet_NaN();
   /// With Simulator::set_accuracy_check: the distance of the step's result to the minimizer of its objective, as
   /// velocities (m/s): the largest per vertex and the vertices' root mean square (NaN: not checked, or the check's

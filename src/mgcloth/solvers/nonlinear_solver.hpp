@@ -34,9 +34,9 @@ struct Stop {
   double step_tol = 0.0;
   /// Or once the model's Newton decrement λ² = ∇Eᵀ A⁻¹ ∇E measured at an iterate (A the solver's Hessian model, A⁻¹
   /// the solver's own inverse of it: a factorization, PCG, or FMG's V-cycle) is at most decrement_tol (J; 0: never).
-  /// The iteration that measured it still takes its step, so the result has no higher energy than that iterate. E(x) − E* ≈
-  /// λ²/2, and where A ≥ M/h² (an implicit step's model: inertia plus PSD-projected forces) the kinetic energy of the
-  /// velocity error is at most that: the simulator sets decrement_tol = M·velocity_rms_tol² so that the
+  /// The iteration that measured it still takes its step, so the result has no higher energy than that iterate.
+  /// E(x) − E* ≈ λ²/2, and where A ≥ M/h² (an implicit step's model: inertia plus PSD-projected forces) the kinetic
+  /// energy of the velocity error is at most that: the simulator sets decrement_tol = M·velocity_rms_tol² so that the
   /// mass-weighted RMS of the velocity error is at most velocity_rms_tol (m/s).
   double decrement_tol = 0.0;
   int max_iters = 100;
