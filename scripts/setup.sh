@@ -9,7 +9,7 @@ PACKAGES=(
   libeigen3-dev libsuitesparse-dev libhypre-dev libopenblas0-openmp libcgal-dev
   nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev libtinyobjloader-dev
   libgtest-dev libbenchmark-dev libpng-dev libosd-dev libtinygltf-dev libcpp-httplib-dev
-  python3-matplotlib
+  python3-matplotlib openmpi-bin libopenmpi-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-venv python3-pip python3-setuptools
 )
 

@@ -38,6 +38,9 @@ int run_render_command();
 /// `mgcloth body --out DIR` (body_command.cpp): the generated walking mannequin as OBJ frames and glb.
 void add_body_command(CLI::App& app);
 int run_body_command();
+/// `mgcloth sweep SWEEP.json --out DIR` (sweep_command.cpp): a parameter sweep, in one process or on MPI ranks.
+void add_sweep_command(CLI::App& app);
+int run_sweep_command();
 /// Runs the subcommand that was parsed; returns the exit code.
 int dispatch(CLI::App& app);
 

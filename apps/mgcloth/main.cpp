@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   mgcloth::cli::add_view_command(app);
   mgcloth::cli::add_render_command(app);
   mgcloth::cli::add_body_command(app);
+  mgcloth::cli::add_sweep_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("view")) return mgcloth::cli::run_view_command();
     if (app.got_subcommand("render")) return mgcloth::cli::run_render_command();
     if (app.got_subcommand("body")) return mgcloth::cli::run_body_command();
+    if (app.got_subcommand("sweep")) return mgcloth::cli::run_sweep_command();
     return mgcloth::cli::dispatch(app);
   } catch (const mgcloth::Error& e) {
     std::fprintf(stderr, "mgcloth: error: %s\n", e.what());
