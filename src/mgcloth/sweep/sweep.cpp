@@ -23,7 +23,7 @@ constexpr int kDescriptionFormat = 1;
 const char* const kDescriptionFile = "sweep.json";
 const char* const kResultFile = "result.json";
 const char* const kSummaryFile = "summary.csv";
-const std::vector<std::string> kFixedColumns{"run", "status", "wall_s", "frames", "steps", "iterations",
+const std::vector<std::string> kFixedColumns{"run", "status", "wall_s", "last_frame", "steps", "iterations",
                                              "unconverged_steps", "rank", "resumed_from", "message", "folder"};
 
 /// A uniform double in [0, 1) from the engine's bits: std::uniform_real_distribution's algorithm is the standard
@@ -231,6 +231,7 @@ Sweep parse_sweep(const Json& json, const std::string& file, const fs::path& bas
     p.group = zip_all ? std::string("*") : pr.string("group", "");
     if (zip_all && pr.has("group")) pr.fail("group", "not with \"combine\": \"zip\" (every parameter is zipped)");
     const int sources = pr.has("values") + pr.has("range") + pr.has("random");
+    if (sources == 0) pr.finish();  // a misspelt "values" is the likelier mistake: named as such
     if (sources != 1) pr.fail("values", "give exactly one of \"values\", \"range\" and \"random\"");
     if (pr.has("values")) {
       const Json& v = pr.raw("values");
@@ -458,7 +459,7 @@ std::string summary_csv(const Sweep& sweep, const std::vector<std::optional<RunR
   const auto measures = sweep.measure_columns();
   std::vector<std::string> header{"run", "status"};
   for (const auto& c : params) header.push_back(c);
-  for (const char* c : {"wall_s", "frames", "steps", "iterations", "unconverged_steps"}) header.push_back(c);
+  for (const char* c : {"wall_s", "last_frame", "steps", "iterations", "unconverged_steps"}) header.push_back(c);
   for (const auto& c : measures) header.push_back(c);
   for (const char* c : {"rank", "resumed_from", "message", "folder"}) header.push_back(c);
   std::string text = fmt::format("{}\n", fmt::join(header, ","));

@@ -93,7 +93,7 @@ std::optional<RunResult> execute_run(const Sweep& sweep, const std::filesystem::
                                      const RunOptions& options);
 
 /// summary.csv, written atomically: one row per run in run order (runs without a result: status "pending"), with
-/// the run's number, status, parameter values, wall time, frames, steps, iterations, measures, rank, message and
+/// the run's number, status, parameter values, wall time, last frame, steps, iterations, measures, rank, message and
 /// folder.
 void write_summary(const Sweep& sweep, const std::filesystem::path& out, const std::vector<std::optional<RunResult>>& results);
 
