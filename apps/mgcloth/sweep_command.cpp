@@ -84,13 +84,13 @@ int run_serial() {
   sweep::RunOptions options;
   options.threads = g_sweep.threads;
   options.stop = [] { return interrupted(); };
-  size_t done = 0, todo = 0;
-  {
-    std::vector<std::optional<sweep::RunResult>> probe;
-    if (g_sweep.resume && fs::exists(fs::path(g_sweep.out) / "sweep.json"))
-      todo = sweep::pending_runs(s, g_sweep.out, probe, false).size();
-    else
-      todo = s.size();
+  size_t done = 0, todo = s.size();
+  if (g_sweep.resume && fs::exists(fs::path(g_sweep.out) / "sweep.json")) {
+    std::vector<std::optional<sweep::RunResult>> finished;
+    todo = sweep::pending_runs(s, g_sweep.out, finished, false).size();
+    if (g_sweep.retry_failed)
+      todo += static_cast<size_t>(std::count_if(finished.begin(), finished.end(),
+                                                [](const auto& r) { return r && r->status == "failed"; }));
   }
   if (!g_sweep.quiet)
     std::fprintf(stderr, "mgcloth sweep: %zu runs of %s in one process -> %s\n", s.size(), s.scene_file.string().c_str(),
@@ -139,7 +139,8 @@ int coordinate(const sweep::Sweep& s, int size, int threads) {
   Timer timer;
   std::vector<std::optional<sweep::RunResult>> results;
   const std::vector<size_t> pending = sweep::pending_runs(s, g_sweep.out, results, g_sweep.retry_failed);
-  sweep::write_summary(s, g_sweep.out, results);
+  sweep::SummaryWriter summary(s, g_sweep.out);
+  summary.flush(results);
   if (!g_sweep.quiet)
     std::fprintf(stderr, "mgcloth sweep: %zu runs of %s (%zu to do) on %d ranks x %d threads -> %s\n", s.size(),
                  s.scene_file.string().c_str(), pending.size(), size, threads, g_sweep.out.c_str());
@@ -155,16 +156,22 @@ int coordinate(const sweep::Sweep& s, int size, int threads) {
     return run;
   };
   bool local_done = false;
+  std::string local_error;  // what stopped the local runs other than a run's own failure (a full disk)
   std::thread local([&] {
     sweep::RunOptions options;
     options.threads = threads;
     options.rank = 0;
     options.stop = [] { return interrupted(); };
-    while (const auto run = next()) {
-      auto r = sweep::execute_run(s, g_sweep.out, *run, options);
-      if (!r) break;
+    try {
+      while (const auto run = next()) {
+        auto r = sweep::execute_run(s, g_sweep.out, *run, options);
+        if (!r) break;
+        std::lock_guard<std::mutex> guard(lock);
+        arrived.push_back(std::move(*r));
+      }
+    } catch (const std::exception& e) {
       std::lock_guard<std::mutex> guard(lock);
-      arrived.push_back(std::move(*r));
+      local_error = e.what();
     }
     std::lock_guard<std::mutex> guard(lock);
     local_done = true;
@@ -173,23 +180,32 @@ int coordinate(const sweep::Sweep& s, int size, int threads) {
     const size_t run = r.run;
     results[run] = std::move(r);
     report(*results[run], ++done, pending.size());
-    sweep::write_summary(s, g_sweep.out, results);
+    summary.update(results);
   };
   int workers = size - 1;
   for (;;) {
     std::vector<sweep::RunResult> mine;
     bool all_local_done = false;
+    std::string error;
     {
       std::lock_guard<std::mutex> guard(lock);
       mine.swap(arrived);
       all_local_done = local_done;
+      error = local_error;
     }
     for (auto& r : mine) record(std::move(r));
+    if (!error.empty()) {
+      summary.flush(results);
+      local.join();
+      std::fprintf(stderr, "mgcloth: error: rank 0: %s\n", error.c_str());
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
     if (all_local_done && workers == 0) break;
     int flag = 0;
     MPI_Status status;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);
     if (!flag) {
+      if (summary.due()) summary.flush(results);
       // A blocking receive would spin a core that the local runs need.
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
       continue;
@@ -216,7 +232,7 @@ int coordinate(const sweep::Sweep& s, int size, int threads) {
     }
   }
   local.join();
-  sweep::write_summary(s, g_sweep.out, results);
+  summary.flush(results);
   return finish_message(g_sweep.out, results, timer.seconds());
 }
 

@@ -40,7 +40,7 @@ __all__ = [
     "Body", "Box", "Capsule", "Cloth", "ConvergenceResult", "Error", "InputError", "Mesh", "MeshObstacle", "OutOfMemoryError",
     "Plane",
     "Simulation", "SolveError", "Sphere", "StepStats", "convergence", "grid", "load_scene", "material_presets", "num_threads",
-    "set_log_level", "solver_names",
+    "run_sweep", "set_log_level", "solver_names",
 ]
 
 # The label of scenes given as dicts or keywords in messages, where a file name would be.
@@ -334,6 +334,23 @@ class Simulation(_mgcloth.Simulator):
         # Leaves a viewable animation (glb) however the block ends.
         self.finish()
         return False
+
+
+def run_sweep(sweep, out, *, resume=False, retry_failed=False, threads=0):
+    """A parameter sweep (docs/sweeps.md) run one run after another in this process, as `mgcloth sweep` without
+    MPI: each run's folder runs/NNNNN/ and summary.csv go to `out`.
+
+    sweep: a sweep file path, or a dict in the same format (its relative "scene" path is the current folder's).
+    resume: continue a sweep in `out` (finished runs are kept, partial ones continue from their checkpoints);
+    retry_failed: with resume, run the failed runs again. threads: per run (0: the sweep's, else the scene's).
+    Returns a list with one dict per run: run, status ("ok", "failed"), message, values (column -> the run's
+    parameter value), measures (column -> number; NaN where undefined), wall_s, last_frame, steps, iterations,
+    unconverged_steps, resumed_from and folder (relative to out). A failed run is a row, not an exception; a bad
+    sweep raises InputError before any run.
+    """
+    if not isinstance(sweep, _Mapping):
+        sweep = _os.fspath(sweep)
+    return _mgcloth.run_sweep(sweep, _os.fspath(out), resume, retry_failed, threads)
 
 
 def convergence(scene, solvers, *, step=1, budget=10.0, max_iters=10000, threads=0, vertices=None, state_cache=None,

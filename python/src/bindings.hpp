@@ -48,5 +48,6 @@ void bind_errors(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_simulator(py::module_& m);
 void bind_convergence(py::module_& m);
+void bind_sweep(py::module_& m);
 
 }  // namespace mgcloth::python

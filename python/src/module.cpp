@@ -126,6 +126,7 @@ PYBIND11_MODULE(_mgcloth, m) {
   bind_mesh(m);
   bind_simulator(m);
   bind_convergence(m);
+  bind_sweep(m);
 
   m.def("solver_names", &solvers::solver_names,
         "Names of the solvers this build provides (a scene's solver.name, Simulation(solver=...)).");

@@ -63,7 +63,7 @@ class Sweep : public mgcloth::test::TempDirTest {
 #ifdef MGCLOTH_MPIEXEC
     // Root in a container: Open MPI refuses root unless told; --oversubscribe: more ranks than free slots.
     return mgcloth::test::run_cli(args, fmt::format("OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
-                                                    "OMPI_MCA_btl=self,vader {} --oversubscribe -np {}",
+                                                    "OMPI_MCA_btl=self,vader OMPI_MCA_pml=ob1 {} --oversubscribe -np {}",
                                                     MGCLOTH_MPIEXEC, ranks));
 #else
     (void)ranks;

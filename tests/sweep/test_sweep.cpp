@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <numbers>
+#include <thread>
 #include <unistd.h>
 
 namespace fs = std::filesystem;
@@ -327,4 +328,40 @@ TEST_F(SweepTest, TheBendingLengthOfASimulatedStripConvergesToTheClassicalValue)
   EXPECT_LT(error[1], 0.035);
   EXPECT_GT(error[0], 1.5 * error[1]);
   EXPECT_FALSE(fs::exists(run_folder(dir / "out", 0) / "frame_00012.obj"));  // "none"
+}
+
+// The summary of a large sweep is not rewritten after every result (its rewrites would cost more than the runs), but
+// once ten times its last rewrite's duration has passed; a small one is rewritten at once.
+TEST_F(SweepTest, ALargeSummaryIsRewrittenAtMostATenthOfTheTime) {
+  const Sweep s = sweep_of(R"({"scene": "strip.json", "parameters": [
+      {"path": "/cloths/0/material/density", "random": {"min": 100, "max": 400, "count": 300000}}]})");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  std::vector<std::optional<RunResult>> results(s.size());
+  SummaryWriter writer(s, out);
+  const auto start = std::chrono::steady_clock::now();
+  writer.flush(results);  // the first write: the cost to pace by
+  const double cost = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  results[0] = RunResult{};
+  results[0]->status = "ok";
+  writer.update(results);
+  if (cost > 0.01) {  // a write this slow cannot come due again within the microseconds since
+    EXPECT_TRUE(writer.due() || read_file(out / "summary.csv").find("\n0,pending,") != std::string::npos);
+  }
+  while (!writer.due()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  writer.flush(results);
+  EXPECT_NE(read_file(out / "summary.csv").find("\n0,ok,"), std::string::npos);
+  EXPECT_FALSE(writer.due());
+
+  const Sweep small = sweep_of(R"({"scene": "strip.json", "parameters": [{"path": "/frames", "values": [1, 2]}]})");
+  const fs::path out2 = dir / "out2";
+  fs::create_directories(out2);
+  std::vector<std::optional<RunResult>> r2(2);
+  SummaryWriter w2(small, out2);
+  w2.flush(r2);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // ≫ 10 × a two-row write
+  r2[1] = RunResult{};
+  r2[1]->status = "failed";
+  w2.update(r2);
+  EXPECT_NE(read_file(out2 / "summary.csv").find("\n1,failed,"), std::string::npos);
 }

@@ -493,6 +493,27 @@ void write_summary(const Sweep& sweep, const fs::path& out, const std::vector<st
   write_file_atomic(out / kSummaryFile, summary_csv(sweep, results));
 }
 
+void SummaryWriter::write(const std::vector<std::optional<RunResult>>& results) {
+  const auto start = std::chrono::steady_clock::now();
+  write_summary(m_sweep, m_out, results);
+  m_last = std::chrono::steady_clock::now();
+  m_cost = std::chrono::duration<double>(m_last - start).count();
+  m_pending = false;
+}
+
+bool SummaryWriter::due() const {
+  return m_pending && std::chrono::duration<double>(std::chrono::steady_clock::now() - m_last).count() >= 10.0 * m_cost;
+}
+
+void SummaryWriter::update(const std::vector<std::optional<RunResult>>& results) {
+  m_pending = true;
+  if (due()) write(results);
+}
+
+void SummaryWriter::flush(const std::vector<std::optional<RunResult>>& results) {
+  if (m_pending || m_last == std::chrono::steady_clock::time_point{}) write(results);
+}
+
 std::vector<size_t> pending_runs(const Sweep& sweep, const fs::path& out, std::vector<std::optional<RunResult>>& results,
                                  bool retry_failed) {
   results.assign(sweep.size(), std::nullopt);
@@ -514,15 +535,17 @@ std::vector<std::optional<RunResult>> run_serial(const Sweep& sweep, const fs::p
   prepare_output(sweep, out, resume);
   std::vector<std::optional<RunResult>> results;
   const std::vector<size_t> pending = pending_runs(sweep, out, results, retry_failed);
-  write_summary(sweep, out, results);
+  SummaryWriter summary(sweep, out);
+  summary.flush(results);
   for (size_t run : pending) {
     if (options.stop && options.stop()) break;
     std::optional<RunResult> r = execute_run(sweep, out, run, options);
     if (!r) break;  // stopped inside the run: it stays partial
     results[run] = std::move(r);
-    write_summary(sweep, out, results);
+    summary.update(results);
     if (on_result) on_result(*results[run]);
   }
+  summary.flush(results);
   return results;
 }
 

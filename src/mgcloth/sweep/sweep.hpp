@@ -5,6 +5,7 @@
 #include <mgcloth/core/json.hpp>
 #include <mgcloth/sweep/measures.hpp>
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -96,6 +97,28 @@ std::optional<RunResult> execute_run(const Sweep& sweep, const std::filesystem::
 /// the run's number, status, parameter values, wall time, last frame, steps, iterations, measures, rank, message and
 /// folder.
 void write_summary(const Sweep& sweep, const std::filesystem::path& out, const std::vector<std::optional<RunResult>>& results);
+
+/// Keeps summary.csv current as results arrive without letting its rewrites dominate: a table of 10^5 runs is ~15 MB,
+/// and rewriting it after every result would cost more than the results. A rewrite is due once ten times the last
+/// one's duration has passed since it (a small table: after every result; a large one: at most a tenth of the time);
+/// flush() writes what is pending. result.json stays the record: a summary that lags loses nothing.
+class SummaryWriter {
+ public:
+  SummaryWriter(const Sweep& sweep, std::filesystem::path out) : m_sweep(sweep), m_out(std::move(out)) {}
+  /// The results changed: rewrite now if due, else mark it pending.
+  void update(const std::vector<std::optional<RunResult>>& results);
+  /// Whether a pending rewrite is due (for a caller polling while it waits).
+  bool due() const;
+  void flush(const std::vector<std::optional<RunResult>>& results);
+
+ private:
+  void write(const std::vector<std::optional<RunResult>>& results);
+  const Sweep& m_sweep;
+  std::filesystem::path m_out;
+  std::chrono::steady_clock::time_point m_last{};
+  double m_cost = 0.0;  ///< the last rewrite's duration, s
+  bool m_pending = false;
+};
 
 /// The summary's text (what write_summary writes).
 std::string summary_csv(const Sweep& sweep, const std::vector<std::optional<RunResult>>& results);
