@@ -6,6 +6,7 @@
 #include <mgcloth/sweep/sweep.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -45,7 +46,7 @@ std::string scene_path(const Json& scene, const Json::json_pointer& pointer) {
     }
     if (at && at->is_array()) {
       size_t k = 0;
-      const bool numeric = !t.empty() && std::all_of(t.begin(), t.end(), ::isdigit);
+      const bool numeric = !t.empty() && std::all_of(t.begin(), t.end(), [](unsigned char ch) { return std::isdigit(ch) != 0; });
       if (numeric) k = std::stoul(t);
       at = numeric && k < at->size() ? &(*at)[k] : nullptr;
     } else if (at && at->is_object() && at->contains(t)) {
