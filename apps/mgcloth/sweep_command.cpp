@@ -8,6 +8,7 @@
 #include <mgcloth/sweep/sweep.hpp>
 
 #include <fmt/format.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <chrono>
@@ -83,6 +84,7 @@ int run_serial() {
   Timer timer;
   sweep::RunOptions options;
   options.threads = g_sweep.threads;
+  options.default_threads = omp_get_max_threads();  // nothing has changed it yet: all cores, or OMP_NUM_THREADS
   options.stop = [] { return interrupted(); };
   size_t done = 0, todo = s.size();
   if (g_sweep.resume && fs::exists(fs::path(g_sweep.out) / "sweep.json")) {

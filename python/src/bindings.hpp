@@ -44,6 +44,10 @@ py::array_t<double> float_rows(py::handle value, const std::string& name, py::ss
 /// vt. InputError names the array and the row at fault ("F: triangle 7 refers to vertex 120, but V has 100 rows").
 mesh::TriMesh mesh_from_arrays(py::handle V, py::handle F, py::handle uv, const std::string& source);
 
+/// What OpenMP would use with no "threads" in a scene (all cores, or OMP_NUM_THREADS), as the process started: the
+/// thread count is process-wide, so every simulation sets its own before it steps.
+int default_threads();
+
 void bind_errors(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_simulator(py::module_& m);

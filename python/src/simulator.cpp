@@ -17,14 +17,12 @@ namespace mgcloth::python {
 namespace fs = std::filesystem;
 using namespace pybind11::literals;
 
-namespace {
-
-/// What OpenMP would use with no "threads" in the scene (all cores, or OMP_NUM_THREADS), taken before any scene
-/// changed it: the thread count is process-wide, so every step sets its own simulation's.
 int default_threads() {
   static const int n = omp_get_max_threads();
   return n;
 }
+
+namespace {
 
 /// An index given as any integer (Python's, NumPy's): what operator.index accepts.
 long long index_of(py::handle which, const char* what) {

@@ -59,8 +59,15 @@ void bind_sweep(py::module_& m) {
           py::gil_scoped_release release;
           sweep::RunOptions options;
           options.threads = threads;
+          options.default_threads = default_threads();
+          // Ctrl-C ends the sweep after the frame in progress (that run stays partial; resume=True continues it).
+          options.stop = [] {
+            py::gil_scoped_acquire acquire;
+            return PyErr_CheckSignals() != 0;
+          };
           results = sweep::run_serial(s, out, resume, retry_failed, options);
         }
+        if (PyErr_Occurred()) throw py::error_already_set();
         py::list rows;
         for (size_t run = 0; run < s.size(); ++run) rows.append(result_dict(s, run, results[run]));
         return rows;
@@ -71,7 +78,8 @@ void bind_sweep(py::module_& m) {
       "folder's) one run after another in this process, as `mgcloth sweep` without MPI: runs/NNNNN/ per run and "
       "summary.csv in `out`. Returns one dict per run: run, status (ok, failed), message, values (column -> the "
       "run's parameter value), measures (column -> number, NaN where undefined), wall_s, last_frame, steps, "
-      "iterations, unconverged_steps, resumed_from, folder (relative to `out`).");
+      "iterations, unconverged_steps, resumed_from, folder (relative to `out`). Ctrl-C (KeyboardInterrupt) stops it "
+      "after the frame in progress; resume=True continues.");
 }
 
 }  // namespace mgcloth::python

@@ -60,3 +60,22 @@ def test_the_calibration_example_fits_the_target_drop(tmp_path):
                         "--runs", "3", "--out", str(tmp_path / "far")], env=env, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode != 0 and "outside the sweep's" in r.stderr
+
+
+def test_ctrl_c_stops_a_sweep_after_its_frame_and_resume_continues(tmp_path):
+    import signal
+    import threading
+
+    out = tmp_path / "interrupted"
+    sweep = strip_sweep([300, 200, 150, 400, 500, 600, 250, 350])
+    sweep["parameters"][1]["values"] = [20]  # ~0.5 s a run: the signal lands inside the sweep
+    timer = threading.Timer(0.8, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            mgcloth.run_sweep(sweep, out)
+    finally:
+        timer.join()
+    rows = mgcloth.run_sweep(sweep, out, resume=True)
+    assert [r["status"] for r in rows] == ["ok"] * 8
+    assert any(r["resumed_from"] >= 0 for r in rows)  # the run the signal stopped went on from its checkpoint

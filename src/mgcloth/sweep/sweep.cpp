@@ -398,6 +398,7 @@ std::optional<RunResult> execute_run(const Sweep& sweep, const fs::path& out, si
     scene.output.dir = dir.string();
     if (options.threads > 0) scene.threads = options.threads;
     else if (sweep.threads > 0) scene.threads = sweep.threads;
+    else if (scene.threads == 0) scene.threads = options.default_threads;
     if (sweep.frames != "all") scene.output.every = std::max(1, scene.frames);
     const int total = scene.frames;
     sim::Simulator sim(std::move(scene));

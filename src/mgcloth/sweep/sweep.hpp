@@ -82,6 +82,10 @@ std::optional<RunResult> read_result(const Sweep& sweep, const std::filesystem::
 
 struct RunOptions {
   int threads = 0;  ///< the run's threads (0: the sweep's, then the scene's)
+  /// Where neither the options, the sweep nor the run's scene names a thread count: all cores, as the process had them
+  /// before any run set its own (the thread count is process-wide: a run on 1 thread must not leave the next scene's
+  /// "threads": 0 on 1). 0 leaves OpenMP's current setting.
+  int default_threads = 0;
   int rank = 0;
   /// Called between frames; true ends the run early (it stays partial and resumes from its checkpoint).
   std::function<bool()> stop;
