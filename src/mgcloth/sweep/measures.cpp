@@ -43,13 +43,6 @@ Vec3 mean_at(const bodies::ClothBody& c, int axis, double at, double tol, Index&
   return count > 0 ? Vec3(sum / static_cast<double>(count)) : Vec3::Constant(kNaN);
 }
 
-double mean_material_edge(const mesh::TriMesh& m) {
-  double sum = 0.0;
-  for (const Tri& t : m.tris)
-    for (int k = 0; k < 3; ++k) sum += (m.u.col(t[k]) - m.u.col(t[(k + 1) % 3])).norm();
-  return m.tris.empty() ? 0.0 : sum / (3.0 * static_cast<double>(m.tris.size()));
-}
-
 }  // namespace
 
 std::vector<std::string> Measure::columns() const {
@@ -184,7 +177,7 @@ std::vector<double> evaluate(const Measure& m, const sim::Simulator& sim) {
     return {drape_coefficient(shadow_area(x, mesh.tris, down, m.raster), flat, m.support_radius)};
   }
   // bending_length: the chord from the clamp's edge to the free end, whose material coordinate is the largest.
-  const double tol = 0.5 * mean_material_edge(mesh);
+  const double tol = 0.5 * mesh::mean_material_edge_length(mesh);
   const double tip_at = mesh.u.row(m.axis).maxCoeff();
   Index at_clamp = 0, at_tip = 0;
   const Vec3 base = mean_at(c, m.axis, m.clamp, tol, at_clamp);
